@@ -1,0 +1,39 @@
+# wheelgym: the two commands of the README, from a fresh machine.
+#   make run    set up .venv, train the default agent, score it against the analytic baseline
+#   make test   set up .venv, run the test suite
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test test-slow lint bench validate clean-venv
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+	# The CPU build of torch first: an unpinned torch would pull a multi-GB CUDA build.
+	$(PIP) install --quiet "torch==2.13.0" || $(PIP) install --quiet "torch==2.13.0" --index-url https://download.pytorch.org/whl/cpu
+	$(PIP) install --quiet -e ".[train,dev]"
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(VENV)/bin/wheelgym main
+
+test: $(STAMP)
+	$(PY) -m pytest -q -n 2 --dist loadgroup
+
+test-slow: $(STAMP)
+	$(PY) -m pytest -q -m slow
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+bench: $(STAMP)
+	$(PY) benchmarks/physics.py
+
+validate: $(STAMP)
+	$(PY) -m wheelgym.validate
+
+clean-venv:
+	rm -rf $(VENV)

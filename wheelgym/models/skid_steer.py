@@ -1,0 +1,296 @@
+"""Four-wheel skid-steer robot, Kozlowski-Pazderski model (physics.md section 3).
+
+State ``x = (x, y, yaw, vx, wz)`` (m, m, rad, m/s, rad/s); input ``u = (tau_1, tau_2, tau_3,
+tau_4)`` (N·m), wheels 1 rear-left, 2 front-left, 3 front-right, 4 rear-right. The lateral
+body velocity follows from the ICR constraint ``vy = -x_icr wz`` (SS-1), so it is not a state.
+
+Dynamics (SS-3): ``Mbar etadot + Cbar eta + Rbar = Bbar (tau_L, tau_R)`` with
+``eta = (vx, wz)``, ``tau_L = tau_1 + tau_2``, ``tau_R = tau_3 + tau_4``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import ClassVar
+
+import numpy as np
+from numba import njit, prange
+
+from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.models._base import Model, Params
+from wheelgym.models.friction import sgn_s
+
+__all__ = ["SkidSteerParams", "SkidSteer"]
+
+# Layout of the packed parameter vector read by the kernels.
+_M, _I, _A, _B, _C, _R, _XICR, _MUS, _MUL, _KS, _G, _TMAX = range(12)
+
+
+@dataclasses.dataclass(frozen=True)
+class SkidSteerParams(Params):
+    """Skid-steer parameters (physics.md section 3; defaults: a Clearpath Husky-like robot).
+
+    | name     | default | unit  | meaning                                                  |
+    |----------|---------|-------|----------------------------------------------------------|
+    | m        | 56.6    | kg    | total mass                                               |
+    | I        | 3.6     | kg m² | yaw inertia about the centre of mass                     |
+    | a        | 0.286   | m     | centre of mass to rear axle                              |
+    | b        | 0.226   | m     | centre of mass to front axle                             |
+    | c        | 0.2854  | m     | half track                                               |
+    | r        | 0.1651  | m     | wheel radius                                             |
+    | x_icr    | -0.03   | m     | ICR x coordinate in B (``vy = -x_icr wz``), in (-a, b)   |
+    | mu_s     | 0.03    | -     | longitudinal rolling-resistance coefficient              |
+    | mu_l     | 0.6     | -     | lateral sliding-friction coefficient                     |
+    | k_s      | 100.0   | s/m   | arctan smoothing of the friction sign                    |
+    | g        | 9.81    | m/s²  | gravity                                                  |
+    | tau_max  | 30.0    | N·m   | torque limit of each motor                               |
+    """
+
+    m: float = 56.6
+    I: float = 3.6
+    a: float = 0.286
+    b: float = 0.226
+    c: float = 0.2854
+    r: float = 0.1651
+    x_icr: float = -0.03
+    mu_s: float = 0.03
+    mu_l: float = 0.6
+    k_s: float = 100.0
+    g: float = 9.81
+    tau_max: float = 30.0
+
+    _positive: ClassVar[tuple[str, ...]] = ("m", "I", "a", "b", "c", "r", "k_s", "g", "tau_max")
+    _nonnegative: ClassVar[tuple[str, ...]] = ("mu_s", "mu_l")
+
+    def _check(self) -> None:
+        if not -self.a < self.x_icr < self.b:
+            raise ValueError(
+                f"SkidSteerParams.x_icr must lie between the axles, in (-a, b) = "
+                f"({-self.a}, {self.b}), got {self.x_icr}"
+            )
+
+    def pack(self) -> np.ndarray:
+        return np.array(
+            [self.m, self.I, self.a, self.b, self.c, self.r, self.x_icr, self.mu_s, self.mu_l,
+             self.k_s, self.g, self.tau_max],
+            dtype=np.float64,
+        )
+
+    # Derived quantities -------------------------------------------------------------
+    @property
+    def wheel_positions(self) -> np.ndarray:
+        """Wheel contact points ``(x_i, y_i)`` in B, wheels 1..4 (physics.md section 3)."""
+        return np.array([[-self.a, self.c], [self.b, self.c], [self.b, -self.c],
+                         [-self.a, -self.c]])
+
+    @property
+    def normal_loads(self) -> np.ndarray:
+        """Static normal loads ``N_i`` (N), wheels 1..4 (SS-2)."""
+        n_rear = self.b * self.m * self.g / (2.0 * (self.a + self.b))
+        n_front = self.a * self.m * self.g / (2.0 * (self.a + self.b))
+        return np.array([n_rear, n_front, n_front, n_rear])
+
+
+# ---------------------------------------------------------------------------- compiled pieces
+@njit(cache=True, inline="always")
+def _loads(p):  # pragma: no cover - compiled
+    """(N_rear, N_front) of SS-2."""
+    s = 2.0 * (p[_A] + p[_B])
+    return p[_B] * p[_M] * p[_G] / s, p[_A] * p[_M] * p[_G] / s
+
+
+@njit(cache=True, inline="always")
+def _resist(vx, wz, p):  # pragma: no cover - compiled
+    """Rbar = (sum F_si, -x_icr sum F_li + M_r) of SS-2/SS-3 and the friction power (W, <= 0)."""
+    a, b, c, xicr, ks = p[_A], p[_B], p[_C], p[_XICR], p[_KS]
+    n_rear, n_front = _loads(p)
+    vy = -xicr * wz  # SS-1 ICR constraint
+    sum_fs = 0.0
+    sum_fl = 0.0
+    m_r = 0.0
+    power = 0.0
+    for i in range(4):
+        # wheel i: 1 rear-left, 2 front-left, 3 front-right, 4 rear-right
+        xi = -a if (i == 0 or i == 3) else b
+        yi = c if i < 2 else -c
+        ni = n_rear if (i == 0 or i == 3) else n_front
+        vix = vx - wz * yi  # SS-1 wheel contact velocities
+        viy = vy + wz * xi
+        fs = p[_MUS] * ni * sgn_s(vix, ks)  # SS-2
+        fl = p[_MUL] * ni * sgn_s(viy, ks)
+        sum_fs += fs
+        sum_fl += fl
+        m_r += xi * fl - yi * fs
+        power -= fs * vix + fl * viy
+    return sum_fs, -xicr * sum_fl + m_r, power
+
+
+@njit(cache=True)
+def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    yaw, vx, wz = x[2], x[3], x[4]
+    m, xicr = p[_M], p[_XICR]
+    vy = -xicr * wz  # SS-1
+    cy = math.cos(yaw)
+    sy = math.sin(yaw)
+    out[0] = cy * vx - sy * vy  # physics.md section 0 (three-wheel paper (15)-(16))
+    out[1] = sy * vx + cy * vy
+    out[2] = wz
+    r0, r1, _ = _resist(vx, wz, p)
+    tau_l = u[0] + u[1]
+    tau_r = u[2] + u[3]
+    # SS-3: Mbar etadot = Bbar tau - Cbar eta - Rbar
+    f0 = (tau_l + tau_r) / p[_R] - m * xicr * wz * wz - r0
+    f1 = p[_C] * (tau_r - tau_l) / p[_R] + m * xicr * wz * vx - r1
+    out[3] = f0 / m
+    out[4] = f1 / (m * xicr * xicr + p[_I])
+
+
+@njit(cache=True)
+def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
+    for i in range(X.shape[0]):
+        _deriv_one(X[i], U[i], p, out[i])
+
+
+@njit(cache=True)
+def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    work = np.empty((5, X.shape[1]))
+    for i in range(X.shape[0]):
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+@njit(cache=True, parallel=True)
+def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    for i in prange(X.shape[0]):
+        work = np.empty((5, X.shape[1]))
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+@njit(cache=True)
+def _k_resist(E, p, out):  # pragma: no cover - compiled
+    for i in range(E.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = _resist(E[i, 0], E[i, 1], p)
+
+
+# ---------------------------------------------------------------------------- the model
+class SkidSteer(Model):
+    """Four-wheel skid-steer robot (Kozlowski-Pazderski, physics.md section 3).
+
+    | index | state | unit  |   | index | input | unit |
+    |-------|-------|-------|---|-------|-------|------|
+    | 0     | x     | m     |   | 0     | tau_1 (rear-left)   | N·m |
+    | 1     | y     | m     |   | 1     | tau_2 (front-left)  | N·m |
+    | 2     | yaw   | rad   |   | 2     | tau_3 (front-right) | N·m |
+    | 3     | vx    | m/s   |   | 3     | tau_4 (rear-right)  | N·m |
+    | 4     | wz    | rad/s |   |       |       |      |
+
+    Stability of the default ``sim_dt = 0.002 s``: the stiffest mode is the yaw rate near
+    ``v_iy = 0``, where ``dRbar_2/dwz = (2 k_s/pi) (mu_l sum N_i (x_i - x_icr)^2 +
+    mu_s sum N_i y_i^2)`` over ``m x_icr^2 + I`` gives about 405 1/s at the defaults; RK4's
+    real stability limit is ``|lambda| dt < 2.785``, so the default step sits at 0.81.
+    See :meth:`stiffness`.
+    """
+
+    state_names = ("x", "y", "yaw", "vx", "wz")
+    input_names = ("tau_1", "tau_2", "tau_3", "tau_4")
+    params_type = SkidSteerParams
+    default_sim_dt = 0.002
+    default_ctrl_dt = 0.05
+
+    _k_deriv = _k_deriv
+    _k_step = _k_step
+    _k_step_par = _k_step_par
+
+    params: SkidSteerParams
+
+    # SS-3 pieces ------------------------------------------------------------------
+    def mbar(self) -> np.ndarray:
+        """``Mbar = [[m, 0], [0, m x_icr^2 + I]]`` (SS-3)."""
+        p = self.params
+        return np.array([[p.m, 0.0], [0.0, p.m * p.x_icr**2 + p.I]])
+
+    def cbar(self, x: np.ndarray) -> np.ndarray:
+        """``Cbar(eta) = m x_icr [[0, wz], [-wz, 0]]`` (SS-3); shape ``(..., 2, 2)``."""
+        wz = np.asarray(x, dtype=np.float64)[..., 4]
+        k = self.params.m * self.params.x_icr * wz
+        out = np.zeros(wz.shape + (2, 2))
+        out[..., 0, 1] = k
+        out[..., 1, 0] = -k
+        return out
+
+    def bbar(self) -> np.ndarray:
+        """``Bbar = (1/r) [[1, 1], [-c, c]]`` acting on ``(tau_L, tau_R)`` (SS-3)."""
+        p = self.params
+        return np.array([[1.0, 1.0], [-p.c, p.c]]) / p.r
+
+    def rbar(self, x: np.ndarray) -> np.ndarray:
+        """Resistance ``Rbar(eta)`` of SS-2/SS-3, shape ``(..., 2)``."""
+        return self._resist(x)[..., :2]
+
+    def normal_loads(self) -> np.ndarray:
+        """Static wheel loads ``N_i`` (N), wheels 1..4 (SS-2)."""
+        return self.params.normal_loads
+
+    def _resist(self, x: np.ndarray) -> np.ndarray:
+        X = self._as_batch(x, self.state_dim, "x")
+        E = np.ascontiguousarray(X[..., 3:5].reshape(-1, 2))
+        out = np.empty((E.shape[0], 3))
+        _k_resist(E, self._p, out)
+        return out.reshape(X.shape[:-1] + (3,))
+
+    # Kinematics ---------------------------------------------------------------------
+    def wheel_speeds(self, x: np.ndarray) -> np.ndarray:
+        """``(omega_L, omega_R) = ((vx - c wz)/r, (vx + c wz)/r)`` (SS-1), rad/s."""
+        X = self._as_batch(x, self.state_dim, "x")
+        p = self.params
+        return np.stack([(X[..., 3] - p.c * X[..., 4]) / p.r,
+                         (X[..., 3] + p.c * X[..., 4]) / p.r], axis=-1)
+
+    def joint_velocity(self, x: np.ndarray) -> np.ndarray:
+        """Wheel rates in motor order (rad/s): ``(omega_L, omega_L, omega_R, omega_R)``."""
+        w = self.wheel_speeds(x)
+        return w[..., [0, 0, 1, 1]]
+
+    def body_twist(self, x: np.ndarray) -> np.ndarray:
+        """``(vx, vy, wz)`` in B with ``vy = -x_icr wz`` (SS-1)."""
+        X = self._as_batch(x, self.state_dim, "x")
+        return np.stack([X[..., 3], -self.params.x_icr * X[..., 4], X[..., 4]], axis=-1)
+
+    # Energy ---------------------------------------------------------------------------
+    def kinetic_energy(self, x: np.ndarray) -> np.ndarray:
+        """``T = m (vx^2 + vy^2)/2 + I wz^2/2`` (J)."""
+        X = self._as_batch(x, self.state_dim, "x")
+        p = self.params
+        return 0.5 * p.m * X[..., 3] ** 2 + 0.5 * (p.m * p.x_icr**2 + p.I) * X[..., 4] ** 2
+
+    def motor_power(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Mechanical power of the motors, ``sum tau_k omega_k`` (W)."""
+        U = self._as_batch(u, self.input_dim, "u")
+        return np.sum(U * self.joint_velocity(x), axis=-1)
+
+    def friction_power(self, x: np.ndarray) -> np.ndarray:
+        """Power of the friction forces, ``-sum (F_si v_ix + F_li v_iy)`` (W, <= 0)."""
+        return self._resist(x)[..., 2]
+
+    def stiffness(self) -> float:
+        """Largest friction eigenvalue magnitude (1/s) at zero velocity (see class docstring).
+
+        RK4 is stable for real eigenvalues with ``|lambda| sim_dt < 2.785``.
+        """
+        p = self.params
+        pos = p.wheel_positions
+        n = p.normal_loads
+        k = 2.0 * p.k_s / math.pi
+        lat = k * p.mu_l * np.sum(n * (pos[:, 0] - p.x_icr) ** 2)
+        lon_w = k * p.mu_s * np.sum(n * pos[:, 1] ** 2)
+        lam_w = (lat + lon_w) / (p.m * p.x_icr**2 + p.I)
+        lam_v = k * p.mu_s * np.sum(n) / p.m
+        return float(max(lam_w, lam_v))
