@@ -2,5 +2,6 @@
 
 from wheelgym.models._base import Model, Params
 from wheelgym.models.skid_steer import SkidSteer, SkidSteerParams
+from wheelgym.models.three_wheel import ThreeWheel, ThreeWheelParams
 
-__all__ = ["Model", "Params", "SkidSteer", "SkidSteerParams"]
+__all__ = ["Model", "Params", "SkidSteer", "SkidSteerParams", "ThreeWheel", "ThreeWheelParams"]

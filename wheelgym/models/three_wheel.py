@@ -1,0 +1,743 @@
+"""Three-wheel redundantly actuated robot with off-centred steerable wheels (physics.md section 2).
+
+A platform carries three caster modules (wheel 1 rear-left, 2 rear-right, 3 front). Each module
+has a steering motor at its vertical axis ``A_i`` and a drive motor on the wheel axle, so six
+motors drive three degrees of freedom (force redundancy, three-wheel paper section 4).
+
+State ``x = (x, y, yaw, vx, vy, wz, psi_1, psi_2, psi_3, theta_1, theta_2, theta_3)`` (TW-5);
+input ``tau = (drive_1, drive_2, drive_3, steer_1, steer_2, steer_3)`` (N·m, motor order).
+
+Dynamics in the body twist ``u = (vx, vy, wz)`` (physics.md TW-3, three-wheel paper (26)):
+
+    M(psi) udot + c(psi, u) = J(psi)^T tau + Q_f(psi, u)
+
+The compiled kernel evaluates the closed form of TW-3. :func:`noc_terms` derives the same
+``M`` and ``c`` the long way, with the natural orthogonal complement of the paper (17)-(29):
+twist-shaping matrix ``T`` of the seven bodies, ``T^T M_bodies T`` and
+``T^T (M_bodies Tdot + W M_bodies T) u``; the tests check that both agree to 1e-12.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import ClassVar
+
+import numpy as np
+from numba import njit, prange
+
+from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.models._base import Model, Params
+from wheelgym.models.friction import sgn_s
+
+__all__ = ["ThreeWheelParams", "ThreeWheel", "noc_terms", "RK4_REAL_STABILITY_LIMIT"]
+
+#: RK4's stability region reaches ``lambda dt = -2.785`` on the negative real axis.
+RK4_REAL_STABILITY_LIMIT = 2.785
+
+# Layout of the packed parameter vector read by the kernels (the last five are derived).
+(_MB, _IB, _MW, _IWY, _IWZ, _R, _D, _A1X, _A1Y, _A2X, _A2Y, _A3X, _A3Y, _MUR, _MUP, _RHO,
+ _BD, _BS, _KS, _G, _TDM, _TSM, _KW, _KZ, _MT, _INVD, _INVR) = range(27)
+
+
+def _cross2(a: np.ndarray, b: np.ndarray) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class ThreeWheelParams(Params):
+    """Three-wheel robot parameters (physics.md section 2; defaults: a research AGV of ~25 kg).
+
+    | name          | default | unit      | meaning                                      |
+    |---------------|---------|-----------|----------------------------------------------|
+    | m_b           | 20.0    | kg        | platform mass                                |
+    | I_b           | 1.0     | kg m²     | platform yaw inertia about its CoM           |
+    | m_w           | 1.0     | kg        | module mass (at the wheel centre)            |
+    | I_wy          | 0.0028  | kg m²     | wheel spin inertia                           |
+    | I_wz          | 0.005   | kg m²     | module yaw inertia about the wheel centre    |
+    | r             | 0.075   | m         | wheel radius                                 |
+    | d             | 0.04    | m         | caster trail, steering axis to wheel centre  |
+    | axes          | see below | m       | steering-axis positions a_i in B, (3, 2)     |
+    | mu_r          | 0.015   | -         | rolling-resistance coefficient               |
+    | mu_p          | 0.008   | m         | pivot (scrub) friction length                |
+    | rho           | 0.015   | m         | contact-patch radius (scrub slip speed)      |
+    | b_drive       | 0.01    | N·m·s/rad | viscous drive-joint friction                 |
+    | b_steer       | 0.01    | N·m·s/rad | viscous steering-joint friction              |
+    | k_s           | 100.0   | s/m       | arctan smoothing of the friction sign        |
+    | g             | 9.81    | m/s²      | gravity                                      |
+    | tau_drive_max | 6.0     | N·m       | drive-motor torque limit                     |
+    | tau_steer_max | 3.0     | N·m       | steering-motor torque limit                  |
+
+    ``axes`` defaults to ``((-0.20, 0.20), (-0.20, -0.20), (0.25, 0.0))``: wheel 1
+    rear-left, 2 rear-right, 3 front.
+
+    The body origin is the platform's centre of mass; it must lie strictly inside the triangle
+    of the wheel centres ``p_i = a_i - d e_i`` at ``psi = 0`` (else some static normal load of
+    TW-4 is negative), and the three steering axes must not be collinear.
+    """
+
+    m_b: float = 20.0
+    I_b: float = 1.0
+    m_w: float = 1.0
+    I_wy: float = 0.0028
+    I_wz: float = 0.005
+    r: float = 0.075
+    d: float = 0.04
+    axes: tuple[tuple[float, float], ...] = ((-0.20, 0.20), (-0.20, -0.20), (0.25, 0.0))
+    mu_r: float = 0.015
+    mu_p: float = 0.008
+    rho: float = 0.015
+    b_drive: float = 0.01
+    b_steer: float = 0.01
+    k_s: float = 100.0
+    g: float = 9.81
+    tau_drive_max: float = 6.0
+    tau_steer_max: float = 3.0
+
+    _positive: ClassVar[tuple[str, ...]] = (
+        "m_b", "I_b", "m_w", "I_wy", "I_wz", "r", "d", "rho", "k_s", "g",
+        "tau_drive_max", "tau_steer_max",
+    )
+    _nonnegative: ClassVar[tuple[str, ...]] = ("mu_r", "mu_p", "b_drive", "b_steer")
+
+    def _check(self) -> None:
+        a = np.asarray(self.axes, dtype=np.float64)
+        if a.shape != (3, 2):
+            raise ValueError(
+                f"ThreeWheelParams.axes must be three (x, y) pairs, shape (3, 2), got shape "
+                f"{a.shape}"
+            )
+        scale = max(float(np.max(np.abs(a))), self.d)
+        area2 = _cross2(a[1] - a[0], a[2] - a[0])
+        if abs(area2) <= 1e-9 * scale * scale:
+            raise ValueError(
+                f"ThreeWheelParams.axes are collinear (twice the triangle area is {area2:.3g} "
+                "m²); the three steering axes must span a triangle"
+            )
+        p = a - self.d * np.array([1.0, 0.0])  # wheel centres at psi = 0 (TW-1)
+        c23, c31, c12 = _cross2(p[1], p[2]), _cross2(p[2], p[0]), _cross2(p[0], p[1])
+        tot = c23 + c31 + c12
+        if abs(tot) <= 1e-9 * scale * scale:
+            raise ValueError("ThreeWheelParams.axes: the wheel centres at psi = 0 are collinear")
+        fractions = (c23 / tot, c31 / tot, c12 / tot)
+        if min(fractions) <= 0.0:
+            raise ValueError(
+                "ThreeWheelParams.axes: the centre of mass (body origin) must lie strictly "
+                "inside the triangle of the wheel centres a_i - d e_i at psi = 0, else a "
+                f"normal load of TW-4 is <= 0; the load fractions are {fractions}"
+            )
+
+    # Derived quantities -------------------------------------------------------------
+    @property
+    def k_w(self) -> float:
+        """Rolling inertia per module ``m_w + I_wy / r^2`` (kg), TW-3."""
+        return self.m_w + self.I_wy / self.r**2
+
+    @property
+    def k_z(self) -> float:
+        """Pivot inertia per module ``I_wz / d^2`` (kg), TW-3."""
+        return self.I_wz / self.d**2
+
+    @property
+    def m_total(self) -> float:
+        """Total mass ``m_b + 3 m_w`` (kg)."""
+        return self.m_b + 3.0 * self.m_w
+
+    @property
+    def tau_max(self) -> np.ndarray:
+        """Torque limits in motor order ``[drive_1..3, steer_1..3]`` (N·m)."""
+        return np.array([self.tau_drive_max] * 3 + [self.tau_steer_max] * 3)
+
+    @property
+    def axes_array(self) -> np.ndarray:
+        """Steering-axis positions ``a_i`` in B, shape ``(3, 2)`` (m)."""
+        return np.asarray(self.axes, dtype=np.float64).reshape(3, 2)
+
+    def pack(self) -> np.ndarray:
+        a = self.axes_array
+        return np.array(
+            [self.m_b, self.I_b, self.m_w, self.I_wy, self.I_wz, self.r, self.d,
+             a[0, 0], a[0, 1], a[1, 0], a[1, 1], a[2, 0], a[2, 1],
+             self.mu_r, self.mu_p, self.rho, self.b_drive, self.b_steer, self.k_s, self.g,
+             self.tau_drive_max, self.tau_steer_max, self.k_w, self.k_z, self.m_total,
+             1.0 / self.d, 1.0 / self.r],
+            dtype=np.float64,
+        )
+
+
+# ---------------------------------------------------------------------------- compiled pieces
+# Every piece is written once, as an inline per-module contribution (``_*_i``) plus the
+# platform's share; ``_mass``, ``_bias``, ``_friction``, ``_jt_tau`` sum them for the public
+# methods, and ``_deriv_one`` sums all of them in one pass over the modules (same formulas,
+# one loop, the trig of each steering angle evaluated once).
+# g = (g0, g1, g2), h = (h0, h1, h2) of TW-1; gu = g.u, hu = h.u.
+
+
+@njit(cache=True, inline="always")
+def _trig(psi1, psi2, psi3):  # pragma: no cover - compiled
+    return (math.cos(psi1), math.sin(psi1), math.cos(psi2), math.sin(psi2),
+            math.cos(psi3), math.sin(psi3))
+
+
+@njit(cache=True, inline="always")
+def _gh(cs, i, p):  # pragma: no cover - compiled
+    """``g_i`` and ``h_i`` of physics.md TW-1 (caster-singularity paper (8)-(11))."""
+    c = cs[2 * i]
+    s = cs[2 * i + 1]
+    ax = p[_A1X + 2 * i]
+    ay = p[_A1Y + 2 * i]
+    return (c, s, ax * s - ay * c), (-s, c, ax * c + ay * s)
+
+
+@njit(cache=True, inline="always")
+def _loads(cs, p):  # pragma: no cover - compiled
+    """Static normal loads ``N_i`` (TW-4): barycentric weights of the CoM in the wheel-centre
+    triangle, ``N_1 = m g [p_2, p_3] / ([p_2, p_3] + [p_3, p_1] + [p_1, p_2])`` and cyclic,
+    which solves ``sum N_i = m g`` and zero moments about the CoM."""
+    d = p[_D]
+    x1 = p[_A1X] - d * cs[0]
+    y1 = p[_A1Y] - d * cs[1]
+    x2 = p[_A2X] - d * cs[2]
+    y2 = p[_A2Y] - d * cs[3]
+    x3 = p[_A3X] - d * cs[4]
+    y3 = p[_A3Y] - d * cs[5]
+    c23 = x2 * y3 - y2 * x3
+    c31 = x3 * y1 - y3 * x1
+    c12 = x1 * y2 - y1 * x2
+    w = p[_MT] * p[_G] / (c23 + c31 + c12)
+    return w * c23, w * c31, w * c12
+
+
+@njit(cache=True, inline="always")
+def _mass_i(g, h, p):  # pragma: no cover - compiled
+    """Module share ``k_w g g^T + k_z h h^T`` of M (TW-3), upper triangle."""
+    kw = p[_KW]
+    kz = p[_KZ]
+    return (kw * g[0] * g[0] + kz * h[0] * h[0], kw * g[0] * g[1] + kz * h[0] * h[1],
+            kw * g[0] * g[2] + kz * h[0] * h[2], kw * g[1] * g[1] + kz * h[1] * h[1],
+            kw * g[1] * g[2] + kz * h[1] * h[2], kw * g[2] * g[2] + kz * h[2] * h[2])
+
+
+@njit(cache=True, inline="always")
+def _bias_i(g, h, gu, hu, wz, p):  # pragma: no cover - compiled
+    """Module share ``psidot_i (k_w (h.u) g - k_z (g.u) h)`` of c (TW-3)."""
+    psid = hu * p[_INVD] - wz  # TW-1 steering rate
+    a = psid * p[_KW] * hu
+    b = psid * p[_KZ] * gu
+    return a * g[0] - b * h[0], a * g[1] - b * h[1], a * g[2] - b * h[2]
+
+
+@njit(cache=True, inline="always")
+def _jrows_i(g, h, p):  # pragma: no cover - compiled
+    """Module i's two rows of J (TW-1): drive ``g_i / r``, steer ``h_i / d - e_3``."""
+    invr = p[_INVR]
+    invd = p[_INVD]
+    return ((g[0] * invr, g[1] * invr, g[2] * invr),
+            (h[0] * invd, h[1] * invd, h[2] * invd - 1.0))
+
+
+@njit(cache=True, inline="always")
+def _friction_i(g, h, gu, hu, jd, js, vx, vy, wz, n_i, p):  # pragma: no cover - compiled
+    """Module share of Q_f (TW-4): rolling resistance along ``g_i``, pivot scrub along
+    ``h_i / d`` (slip speed ``rho h_i.u / d``), viscous joints ``-J_i^T B J_i u``."""
+    invd = p[_INVD]
+    ks = p[_KS]
+    fa = p[_MUR] * n_i * sgn_s(gu, ks)
+    fb = p[_MUP] * n_i * sgn_s(p[_RHO] * hu * invd, ks) * invd
+    fd = p[_BD] * (jd[0] * vx + jd[1] * vy + jd[2] * wz)  # b_drive thetadot_i
+    fs = p[_BS] * (js[0] * vx + js[1] * vy + js[2] * wz)  # b_steer psidot_i
+    return (-(fa * g[0] + fb * h[0] + fd * jd[0] + fs * js[0]),
+            -(fa * g[1] + fb * h[1] + fd * jd[1] + fs * js[1]),
+            -(fa * g[2] + fb * h[2] + fd * jd[2] + fs * js[2]))
+
+
+@njit(cache=True, inline="always")
+def _jt_tau_i(jd, js, tau_drive, tau_steer):  # pragma: no cover - compiled
+    """Module share of ``J^T tau``."""
+    return (tau_drive * jd[0] + tau_steer * js[0], tau_drive * jd[1] + tau_steer * js[1],
+            tau_drive * jd[2] + tau_steer * js[2])
+
+
+@njit(cache=True, inline="always")
+def _mass(cs, p):  # pragma: no cover - compiled
+    """Upper triangle (m00, m01, m02, m11, m12, m22) of M(psi), physics.md TW-3."""
+    m = (p[_MB], 0.0, 0.0, p[_MB], 0.0, p[_IB])  # platform diag(m_b, m_b, I_b)
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        a = _mass_i(g, h, p)
+        m = (m[0] + a[0], m[1] + a[1], m[2] + a[2], m[3] + a[3], m[4] + a[4], m[5] + a[5])
+    return m
+
+
+@njit(cache=True, inline="always")
+def _bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
+    """Coriolis/centripetal term c(psi, u) of physics.md TW-3 (three-wheel paper (26))."""
+    c0 = -p[_MB] * wz * vy  # platform m_b (-wz vy, wz vx, 0)
+    c1 = p[_MB] * wz * vx
+    c2 = 0.0
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        gu = g[0] * vx + g[1] * vy + g[2] * wz
+        hu = h[0] * vx + h[1] * vy + h[2] * wz
+        b = _bias_i(g, h, gu, hu, wz, p)
+        c0 += b[0]
+        c1 += b[1]
+        c2 += b[2]
+    return c0, c1, c2
+
+
+@njit(cache=True, inline="always")
+def _friction(cs, vx, vy, wz, p):  # pragma: no cover - compiled
+    """Generalized friction Q_f(psi, u) of physics.md TW-4."""
+    n = _loads(cs, p)
+    q0 = 0.0
+    q1 = 0.0
+    q2 = 0.0
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        gu = g[0] * vx + g[1] * vy + g[2] * wz
+        hu = h[0] * vx + h[1] * vy + h[2] * wz
+        jd, js = _jrows_i(g, h, p)
+        f = _friction_i(g, h, gu, hu, jd, js, vx, vy, wz, n[i], p)
+        q0 += f[0]
+        q1 += f[1]
+        q2 += f[2]
+    return q0, q1, q2
+
+
+@njit(cache=True, inline="always")
+def _friction_jac_rest(cs, p):  # pragma: no cover - compiled
+    """Upper triangle of ``dQ_f/du`` at ``u = 0`` (symmetric, negative semi-definite):
+    ``-sum_i [mu_r N_i s' g g^T + mu_p N_i s' (rho / d^2) h h^T + J_i^T B_i J_i]`` with
+    ``s' = 2 k_s / pi``, the slope of sgn_s at 0 (TW-4 differentiated)."""
+    n = _loads(cs, p)
+    invd = p[_INVD]
+    k = 2.0 * p[_KS] / math.pi
+    e = np.zeros(6)
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        jd, js = _jrows_i(g, h, p)
+        kg = p[_MUR] * n[i] * k
+        kh = p[_MUP] * n[i] * k * p[_RHO] * invd * invd
+        idx = 0
+        for a in range(3):
+            for b in range(a, 3):
+                e[idx] -= (kg * g[a] * g[b] + kh * h[a] * h[b] + p[_BD] * jd[a] * jd[b]
+                           + p[_BS] * js[a] * js[b])
+                idx += 1
+    return e[0], e[1], e[2], e[3], e[4], e[5]
+
+
+@njit(cache=True, inline="always")
+def _solve3(m, f0, f1, f2):  # pragma: no cover - compiled
+    """Solve the symmetric 3x3 system ``M a = f`` by cofactors (M is positive definite)."""
+    m00, m01, m02, m11, m12, m22 = m
+    a00 = m11 * m22 - m12 * m12
+    a01 = m02 * m12 - m01 * m22
+    a02 = m01 * m12 - m02 * m11
+    a11 = m00 * m22 - m02 * m02
+    a12 = m01 * m02 - m00 * m12
+    a22 = m00 * m11 - m01 * m01
+    inv_det = 1.0 / (m00 * a00 + m01 * a01 + m02 * a02)
+    return ((a00 * f0 + a01 * f1 + a02 * f2) * inv_det,
+            (a01 * f0 + a11 * f1 + a12 * f2) * inv_det,
+            (a02 * f0 + a12 * f1 + a22 * f2) * inv_det)
+
+
+@njit(cache=True, inline="always")
+def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
+    """Add module i's shares of M and of ``J^T tau + Q_f - c`` to ``m`` and ``f``; also return
+    its TW-1 joint rates ``(psidot_i, thetadot_i)``."""  # pragma: no cover - compiled
+    g, h = _gh(cs, i, p)
+    gu = g[0] * vx + g[1] * vy + g[2] * wz
+    hu = h[0] * vx + h[1] * vy + h[2] * wz
+    jd, js = _jrows_i(g, h, p)
+    a = _mass_i(g, h, p)
+    b = _bias_i(g, h, gu, hu, wz, p)
+    q = _friction_i(g, h, gu, hu, jd, js, vx, vy, wz, n_i, p)
+    t = _jt_tau_i(jd, js, tau_drive, tau_steer)
+    return ((m[0] + a[0], m[1] + a[1], m[2] + a[2], m[3] + a[3], m[4] + a[4], m[5] + a[5]),
+            (f[0] + t[0] + q[0] - b[0], f[1] + t[1] + q[1] - b[1], f[2] + t[2] + q[2] - b[2]),
+            js[0] * vx + js[1] * vy + js[2] * wz,
+            jd[0] * vx + jd[1] * vy + jd[2] * wz)
+
+
+@njit(cache=True)
+def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    yaw = x[2]
+    vx = x[3]
+    vy = x[4]
+    wz = x[5]
+    cs = _trig(x[6], x[7], x[8])
+    cy = math.cos(yaw)
+    sy = math.sin(yaw)
+    out[0] = cy * vx - sy * vy  # physics.md section 0 (three-wheel paper (15)-(16))
+    out[1] = sy * vx + cy * vy
+    out[2] = wz
+    n = _loads(cs, p)
+    # TW-3: M udot = J^T tau + Q_f - c; the platform's share, then each module's
+    m = (p[_MB], 0.0, 0.0, p[_MB], 0.0, p[_IB])
+    f = (p[_MB] * wz * vy, -p[_MB] * wz * vx, 0.0)
+    m, f, out[6], out[9] = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f)
+    m, f, out[7], out[10] = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f)
+    m, f, out[8], out[11] = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f)
+    f0, f1, f2 = f
+    a0, a1, a2 = _solve3(m, f0, f1, f2)
+    out[3] = a0
+    out[4] = a1
+    out[5] = a2
+
+
+@njit(cache=True)
+def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
+    for i in range(X.shape[0]):
+        _deriv_one(X[i], U[i], p, out[i])
+
+
+@njit(cache=True)
+def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    work = np.empty((5, X.shape[1]))
+    for i in range(X.shape[0]):
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+@njit(cache=True, parallel=True)
+def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    for i in prange(X.shape[0]):
+        work = np.empty((5, X.shape[1]))
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+# Batched kernels of the pieces: PSI (N, 3), V (N, 3) body twists.
+@njit(cache=True)
+def _k_psi_pieces(PSI, p, jac, mass, loads, centers, fjac):  # pragma: no cover - compiled
+    """Fill J (N,6,3), M (N,3,3), N_i (N,3), wheel centres (N,3,2), dQ_f/du at rest (N,3,3)."""
+    d = p[_D]
+    for k in range(PSI.shape[0]):
+        cs = _trig(PSI[k, 0], PSI[k, 1], PSI[k, 2])
+        for i in range(3):
+            g, h = _gh(cs, i, p)
+            jd, js = _jrows_i(g, h, p)
+            for j in range(3):
+                jac[k, i, j] = jd[j]
+                jac[k, 3 + i, j] = js[j]
+            centers[k, i, 0] = p[_A1X + 2 * i] - d * cs[2 * i]  # p_i = a_i - d e_i
+            centers[k, i, 1] = p[_A1Y + 2 * i] - d * cs[2 * i + 1]
+        m00, m01, m02, m11, m12, m22 = _mass(cs, p)
+        mass[k, 0, 0] = m00
+        mass[k, 0, 1] = m01
+        mass[k, 1, 0] = m01
+        mass[k, 0, 2] = m02
+        mass[k, 2, 0] = m02
+        mass[k, 1, 1] = m11
+        mass[k, 1, 2] = m12
+        mass[k, 2, 1] = m12
+        mass[k, 2, 2] = m22
+        e00, e01, e02, e11, e12, e22 = _friction_jac_rest(cs, p)
+        fjac[k, 0, 0] = e00
+        fjac[k, 0, 1] = e01
+        fjac[k, 1, 0] = e01
+        fjac[k, 0, 2] = e02
+        fjac[k, 2, 0] = e02
+        fjac[k, 1, 1] = e11
+        fjac[k, 1, 2] = e12
+        fjac[k, 2, 1] = e12
+        fjac[k, 2, 2] = e22
+        n1, n2, n3 = _loads(cs, p)
+        loads[k, 0] = n1
+        loads[k, 1] = n2
+        loads[k, 2] = n3
+
+
+@njit(cache=True)
+def _k_twist_pieces(PSI, V, p, bias, fric):  # pragma: no cover - compiled
+    """Fill c(psi, u) (N,3) and Q_f(psi, u) (N,3)."""
+    for k in range(PSI.shape[0]):
+        cs = _trig(PSI[k, 0], PSI[k, 1], PSI[k, 2])
+        bias[k, 0], bias[k, 1], bias[k, 2] = _bias(cs, V[k, 0], V[k, 1], V[k, 2], p)
+        fric[k, 0], fric[k, 1], fric[k, 2] = _friction(cs, V[k, 0], V[k, 1], V[k, 2], p)
+
+
+# ---------------------------------------------------------------------------- the model
+class ThreeWheel(Model):
+    """Three-wheel redundantly actuated robot with steerable off-centred wheels (physics.md 2).
+
+    | index | state   | unit  |   | index | input   | unit |
+    |-------|---------|-------|---|-------|---------|------|
+    | 0     | x       | m     |   | 0     | drive_1 (rear-left)  | N·m |
+    | 1     | y       | m     |   | 1     | drive_2 (rear-right) | N·m |
+    | 2     | yaw     | rad   |   | 2     | drive_3 (front)      | N·m |
+    | 3     | vx      | m/s   |   | 3     | steer_1 | N·m  |
+    | 4     | vy      | m/s   |   | 4     | steer_2 | N·m  |
+    | 5     | wz      | rad/s |   | 5     | steer_3 | N·m  |
+    | 6-8   | psi_1..3   | rad |  |       |         |      |
+    | 9-11  | theta_1..3 | rad |  |       |         |      |
+
+    Stability of the default ``sim_dt = 0.002 s``: the stiffest mode is the friction at rest,
+    the largest ``|lambda|`` of ``M^-1 dQ_f/du`` at ``u = 0`` (dominated by the pivot scrub,
+    ``mu_p N_i (2 k_s / pi) rho / d^2`` along ``h_i``). At the defaults it is 50.4 1/s, the
+    maximum over all steering angles (:meth:`stiffness`; 47.6 1/s at ``psi = 0``), so
+    ``|lambda| sim_dt = 0.10``, 27x inside RK4's real stability limit ``|lambda| dt < 2.785``
+    (the largest stable step is about 55 ms).
+    """
+
+    state_names = ("x", "y", "yaw", "vx", "vy", "wz", "psi_1", "psi_2", "psi_3",
+                   "theta_1", "theta_2", "theta_3")
+    input_names = ("drive_1", "drive_2", "drive_3", "steer_1", "steer_2", "steer_3")
+    params_type = ThreeWheelParams
+    default_sim_dt = 0.002
+    default_ctrl_dt = 0.05
+
+    _k_deriv = _k_deriv
+    _k_step = _k_step
+    _k_step_par = _k_step_par
+
+    params: ThreeWheelParams
+
+    # batching helpers ---------------------------------------------------------------
+    def _psi_pieces(self, psi) -> tuple[np.ndarray, ...]:
+        P = self._as_batch(psi, 3, "psi")
+        lead = P.shape[:-1]
+        P2 = np.ascontiguousarray(P.reshape(-1, 3))
+        n = P2.shape[0]
+        jac = np.empty((n, 6, 3))
+        mass = np.empty((n, 3, 3))
+        loads = np.empty((n, 3))
+        centers = np.empty((n, 3, 2))
+        fjac = np.empty((n, 3, 3))
+        _k_psi_pieces(P2, self._p, jac, mass, loads, centers, fjac)
+        return (jac.reshape(lead + (6, 3)), mass.reshape(lead + (3, 3)),
+                loads.reshape(lead + (3,)), centers.reshape(lead + (3, 2)),
+                fjac.reshape(lead + (3, 3)))
+
+    def _twist_pieces(self, psi, u) -> tuple[np.ndarray, np.ndarray]:
+        P = self._as_batch(psi, 3, "psi")
+        V = self._as_batch(u, 3, "u")
+        lead = np.broadcast_shapes(P.shape[:-1], V.shape[:-1])
+        P2 = np.ascontiguousarray(np.broadcast_to(P, lead + (3,)).reshape(-1, 3))
+        V2 = np.ascontiguousarray(np.broadcast_to(V, lead + (3,)).reshape(-1, 3))
+        bias = np.empty_like(P2)
+        fric = np.empty_like(P2)
+        _k_twist_pieces(P2, V2, self._p, bias, fric)
+        return bias.reshape(lead + (3,)), fric.reshape(lead + (3,))
+
+    def _state(self, x) -> np.ndarray:
+        return self._as_batch(x, self.state_dim, "x")
+
+    # TW-1 -----------------------------------------------------------------------------
+    def jacobian(self, psi) -> np.ndarray:
+        """Joint Jacobian ``J(psi)`` of TW-1, ``qdot = J u``; shape ``(..., 6, 3)``.
+
+        Rows in motor order: ``g_i / r`` (drive i, rad/s per unit twist) then
+        ``h_i / d - e_3`` (steer i).
+        """
+        return self._psi_pieces(psi)[0]
+
+    def joint_velocity(self, x) -> np.ndarray:
+        """Joint rates ``qdot = J(psi) u`` in motor order (rad/s), shape ``(..., 6)``."""
+        X = self._state(x)
+        return np.einsum("...ij,...j->...i", self.jacobian(X[..., 6:9]), X[..., 3:6])
+
+    def body_twist(self, x) -> np.ndarray:
+        """Body twist ``u = (vx, vy, wz)`` (m/s, m/s, rad/s), shape ``(..., 3)``."""
+        return self._state(x)[..., 3:6].copy()
+
+    def wheel_centers(self, psi) -> np.ndarray:
+        """Wheel centres ``p_i = a_i - d e_i`` in B (m), shape ``(..., 3, 2)`` (TW-1)."""
+        return self._psi_pieces(psi)[3]
+
+    # TW-3, TW-4 -----------------------------------------------------------------------
+    def mass_matrix(self, psi) -> np.ndarray:
+        """Generalized inertia ``M(psi)`` of TW-3 (kg, kg m, kg m²), shape ``(..., 3, 3)``."""
+        return self._psi_pieces(psi)[1]
+
+    def bias(self, psi, u) -> np.ndarray:
+        """Coriolis/centripetal term ``c(psi, u)`` of TW-3 (N, N, N·m), shape ``(..., 3)``."""
+        return self._twist_pieces(psi, u)[0]
+
+    def friction(self, psi, u) -> np.ndarray:
+        """Generalized friction ``Q_f(psi, u)`` of TW-4 (N, N, N·m), shape ``(..., 3)``."""
+        return self._twist_pieces(psi, u)[1]
+
+    def normal_loads(self, psi) -> np.ndarray:
+        """Static normal loads ``N_i`` (N) of TW-4 at steering angles ``psi``, ``(..., 3)``."""
+        return self._psi_pieces(psi)[2]
+
+    # Energy ---------------------------------------------------------------------------
+    def kinetic_energy(self, x) -> np.ndarray:
+        """``T = u^T M(psi) u / 2`` (J), shape ``(...)``."""
+        X = self._state(x)
+        u = X[..., 3:6]
+        return 0.5 * np.einsum("...i,...ij,...j->...", u, self.mass_matrix(X[..., 6:9]), u)
+
+    def motor_power(self, x, u) -> np.ndarray:
+        """Mechanical power of the six motors ``tau . qdot`` (W), shape ``(...)``."""
+        U = self._as_batch(u, self.input_dim, "u")
+        return np.sum(U * self.joint_velocity(x), axis=-1)
+
+    def friction_power(self, x) -> np.ndarray:
+        """Power of the friction forces ``u . Q_f`` (W, <= 0), shape ``(...)``."""
+        X = self._state(x)
+        return np.sum(X[..., 3:6] * self.friction(X[..., 6:9], X[..., 3:6]), axis=-1)
+
+    def friction_jacobian_at_rest(self, psi) -> np.ndarray:
+        """``dQ_f/du`` at ``u = 0`` (N·s/m ...), shape ``(..., 3, 3)``: symmetric, <= 0."""
+        return self._psi_pieces(psi)[4]
+
+    def stiffness(self, psi=None) -> float:
+        """Largest ``|lambda|`` of ``M^-1 dQ_f/du`` at rest (1/s), see the class docstring.
+
+        Args:
+            psi: steering angles ``(..., 3)`` to evaluate at; ``None`` takes the maximum over
+                a grid of 12 angles per module (1728 configurations).
+
+        RK4 is stable for real eigenvalues with ``|lambda| sim_dt < 2.785``
+        (:data:`RK4_REAL_STABILITY_LIMIT`).
+        """
+        if psi is None:
+            g = np.linspace(-np.pi, np.pi, 12, endpoint=False)
+            psi = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+        _, mass, _, _, fjac = self._psi_pieces(psi)
+        lam = np.linalg.eigvals(np.linalg.solve(mass, fjac))
+        return float(np.max(np.abs(lam)))
+
+
+# ---------------------------------------------------------------------------- NOC derivation
+def noc_terms(
+    params: ThreeWheelParams,
+    psi: np.ndarray,
+    u: np.ndarray,
+    yaw: float = 0.0,
+    wheel_diametral_inertia: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """``M`` and ``c`` of TW-3 by the natural orthogonal complement (three-wheel paper (17)-(29)).
+
+    Reference derivation in NumPy (not used by the compiled kernel, which evaluates the closed
+    form of physics.md TW-3; the tests check both agree to 1e-12).
+
+    Seven rigid bodies, each with a 6-vector twist ``t = (omega, v)`` at its centre of mass in
+    the world frame (paper (17)-(18)): 0 the platform (mass ``m_b``, yaw inertia ``I_b``),
+    1-3 the steering links (mass ``m_w`` at the wheel centre, yaw inertia ``I_wz - I_d``),
+    4-6 the wheels (spin inertia ``I_wy`` about the axle ``n_i``, diametral inertia ``I_d``
+    about ``e_i`` and the vertical, no mass of their own). The stacked 42-vector of twists is
+    (paper (27)) ``t = T_a u + T_b qdot`` with ``qdot = J u`` the joint rates of TW-1 in
+    motor order, so (paper (28)) ``T = T_a + T_b J`` and (paper (29), with ``J`` in place of
+    the paper's ``J_b^-1 J_a``) ``Tdot = Tdot_a + Tdot_b J + T_b Jdot``. Then (paper (24)-(26))
+
+        M = T^T M_bodies T,      c = T^T (M_bodies Tdot + W M_bodies T) u,
+
+    ``W = diag(Omega_k, 0)`` the cross-product matrices of the body angular velocities.
+
+    Reduction to the closed form of TW-3: with no skid, each wheel centre moves with speed
+    ``g_i . u`` along ``e_i``, each module turns at ``h_i . u / d`` about the vertical and each
+    wheel spins at ``g_i . u / r``, so the kinetic energy is
+    ``(m_b |v|^2 + I_b wz^2)/2 + sum_i (k_w (g_i.u)^2 + k_z (h_i.u)^2)/2`` and
+    ``T^T M T = diag(m_b, m_b, I_b) + sum k_w g g^T + k_z h h^T``. In ``T^T M Tdot u`` the
+    rotation of ``e_i`` (normal to the path) drops out and only ``d(g_i.u)/dt = psidot_i h_i.u``
+    and ``d(h_i.u)/dt = -psidot_i g_i.u`` survive, plus ``m_b wz (-vy, vx)`` of the platform;
+    the ``W M T u`` terms are gyroscopic moments of the wheels along ``e_i`` (horizontal),
+    orthogonal to every column of ``T`` (which only turns bodies about ``n_i`` and the
+    vertical), so they vanish, whatever ``I_d`` is.
+
+    Args:
+        params: the robot.
+        psi: steering angles (3,) (rad).
+        u: body twist (vx, vy, wz) (m/s, m/s, rad/s).
+        yaw: platform heading (rad); ``M`` and ``c`` do not depend on it.
+        wheel_diametral_inertia: ``I_d`` (kg m², ``0 <= I_d <= I_wz``) moved from the steering
+            link to the wheel; ``M`` and ``c`` do not depend on it either.
+
+    Returns:
+        ``(M, c, parts)`` with ``parts`` holding ``T`` (42, 3), ``Tdot``, ``M_bodies``
+        (42, 42) and ``W`` (42, 42).
+    """
+    p = params
+    psi = np.asarray(psi, dtype=np.float64).reshape(3)
+    u = np.asarray(u, dtype=np.float64).reshape(3)
+    i_d = float(wheel_diametral_inertia)
+    if not 0.0 <= i_d <= p.I_wz:
+        raise ValueError(f"wheel_diametral_inertia must be in [0, I_wz={p.I_wz}], got {i_d}")
+    a = p.axes_array
+    vx, vy, wz = u
+    kz = np.array([0.0, 0.0, 1.0])
+
+    # TW-1 joint rates and their Jacobian, with Jdot (dg/dpsi = h, dh/dpsi = -g).
+    c, s = np.cos(psi), np.sin(psi)
+    g = np.stack([c, s, a[:, 0] * s - a[:, 1] * c], axis=1)
+    h = np.stack([-s, c, a[:, 0] * c + a[:, 1] * s], axis=1)
+    J = np.vstack([g / p.r, h / p.d - kz])
+    qdot = J @ u
+    psid = qdot[3:]
+    Jdot = np.vstack([(psid[:, None] * h) / p.r, -(psid[:, None] * g) / p.d])
+
+    angles = np.concatenate([[yaw], yaw + psi])  # platform heading, module headings phi_i
+    rates = np.concatenate([[wz], wz + psid])
+
+    def build(E, N, const: float) -> tuple[np.ndarray, np.ndarray]:
+        """T_a (42x3), T_b (42x6) from unit vectors E(k), N(k) of angle k (0: yaw, 1-3: phi_i).
+
+        Called with the vectors themselves and ``const = 1`` this gives ``T_a, T_b``; called
+        with their time derivatives and ``const = 0`` (constant entries) ``Tdot_a, Tdot_b``.
+        """
+        Ta = np.zeros((42, 3))
+        Tb = np.zeros((42, 6))
+        # platform: omega = wz k, v = vx E(yaw) + vy N(yaw)
+        Ta[2, 2] = const
+        Ta[3:6, 0] = E(0)
+        Ta[3:6, 1] = N(0)
+        for i in range(3):
+            # wheel-centre velocity: v_b + wz k x R a_i - d (wz + psidot_i) N(phi_i)
+            v_a = [E(0), N(0), -a[i, 1] * E(0) + a[i, 0] * N(0) - p.d * N(1 + i)]
+            v_b = -p.d * N(1 + i)  # coefficient of psidot_i
+            for body in (1 + i, 4 + i):  # steering link i, wheel i
+                r0 = 6 * body
+                Ta[r0 + 2, 2] = const  # omega_z = wz + psidot_i
+                Tb[r0 + 2, 3 + i] = const
+                for col in range(3):
+                    Ta[r0 + 3:r0 + 6, col] = v_a[col]
+                Tb[r0 + 3:r0 + 6, 3 + i] = v_b
+            Tb[6 * (4 + i):6 * (4 + i) + 3, i] = N(1 + i)  # wheel spin thetadot_i about n_i
+        return Ta, Tb
+
+    def unit_e(k: int) -> np.ndarray:
+        return np.array([np.cos(angles[k]), np.sin(angles[k]), 0.0])
+
+    def unit_n(k: int) -> np.ndarray:
+        return np.array([-np.sin(angles[k]), np.cos(angles[k]), 0.0])
+
+    Ta, Tb = build(unit_e, unit_n, 1.0)
+    # d/dt E(angle) = rate N(angle), d/dt N(angle) = -rate E(angle)
+    Tad, Tbd = build(lambda k: rates[k] * unit_n(k), lambda k: -rates[k] * unit_e(k), 0.0)
+    T = Ta + Tb @ J  # paper (28)
+    Tdot = Tad + Tbd @ J + Tb @ Jdot  # paper (29)
+
+    # Body inertia (paper (18)-(20)): diag(I_k, m_k 1), world frame.
+    Mb = np.zeros((42, 42))
+    Mb[0:3, 0:3] = p.I_b * np.eye(3)  # platform (only the yaw entry acts)
+    Mb[3:6, 3:6] = p.m_b * np.eye(3)
+    for i in range(3):
+        r0 = 6 * (1 + i)
+        Mb[r0:r0 + 3, r0:r0 + 3] = (p.I_wz - i_d) * np.outer(kz, kz)
+        Mb[r0 + 3:r0 + 6, r0 + 3:r0 + 6] = p.m_w * np.eye(3)
+        e3, n3 = unit_e(1 + i), unit_n(1 + i)
+        r0 = 6 * (4 + i)
+        Mb[r0:r0 + 3, r0:r0 + 3] = (p.I_wy * np.outer(n3, n3)
+                                    + i_d * (np.outer(e3, e3) + np.outer(kz, kz)))
+    t = T @ u
+    W = np.zeros((42, 42))
+    for k in range(7):
+        w = t[6 * k:6 * k + 3]
+        W[6 * k:6 * k + 3, 6 * k:6 * k + 3] = np.array(
+            [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
+        )
+    M = T.T @ Mb @ T  # paper (26): generalized inertia
+    cor = T.T @ (Mb @ Tdot + W @ Mb @ T) @ u  # paper (26): -C u
+    return M, cor, {"T": T, "Tdot": Tdot, "M_bodies": Mb, "W": W}
