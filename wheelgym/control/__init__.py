@@ -1,0 +1,31 @@
+"""Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4)."""
+
+from wheelgym.control.distribution import (
+    DISTRIBUTIONS,
+    PAPER_INPUT_JOINTS,
+    distribute,
+    independent_joint_force,
+    internal_force,
+    min_norm,
+    null_space_basis,
+    null_space_projector,
+    paper_distribution,
+    skid_steer_split,
+    weighted,
+    within_limits,
+)
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "PAPER_INPUT_JOINTS",
+    "distribute",
+    "independent_joint_force",
+    "internal_force",
+    "min_norm",
+    "null_space_basis",
+    "null_space_projector",
+    "paper_distribution",
+    "skid_steer_split",
+    "weighted",
+    "within_limits",
+]
