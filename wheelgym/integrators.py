@@ -8,16 +8,46 @@ Two entry points share one algorithm, the classic four-stage Runge-Kutta method
   per-state derivative ``f(x, u, p, out)``.
 * :func:`rk4` is the same scheme for any Python callable ``f(x, u) -> xdot`` on arrays; the
   tests and validation use it for augmented systems (energy integrals, reference formulations).
+
+Single-state kernels (the fast path of :meth:`wheelgym.models.Model.step`) are compiled eagerly
+for the signatures :data:`STEP1_SIG` / :data:`DERIV1_SIG` and report problems through the
+``STATUS_*`` codes below (checked inside the kernel, so a valid call costs no Python-side scan).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 from numba import njit
 
-__all__ = ["rk4", "rk4_inplace", "all_finite", "n_substeps"]
+__all__ = [
+    "rk4",
+    "rk4_inplace",
+    "all_finite",
+    "check_one",
+    "finite_status",
+    "n_substeps",
+    "check_substeps",
+    "STEP1_SIG",
+    "DERIV1_SIG",
+]
+
+#: ``_k_step1(x, u, p, dt, n) -> status``: advance the 1-D state ``x`` in place.
+STEP1_SIG = "int64(float64[::1], float64[::1], float64[::1], float64, int64)"
+#: ``_k_deriv1(x, u, p, out) -> status``: derivative of one state into ``out``.
+DERIV1_SIG = "int64(float64[::1], float64[::1], float64[::1], float64[::1])"
+
+# Status codes of the single-state kernels (0: success).
+STATUS_OK = 0
+STATUS_X_SHAPE = 1
+STATUS_U_SHAPE = 2
+STATUS_X_NONFINITE = 3
+STATUS_U_NONFINITE = 4
+STATUS_BAD_DT = 5
+STATUS_BAD_N = 6
+STATUS_DIVERGED = 7
 
 
 @njit(cache=True, inline="always")
@@ -57,6 +87,41 @@ def all_finite(a):  # pragma: no cover - compiled
             if not np.isfinite(a[i, j]):
                 return False
     return True
+
+
+@njit(cache=True, inline="always")
+def check_one(x, u, nx, nu):  # pragma: no cover - compiled
+    """Status code for one state ``x`` (length ``nx``) and input ``u`` (length ``nu``)."""
+    if x.shape[0] != nx:
+        return STATUS_X_SHAPE
+    if u.shape[0] != nu:
+        return STATUS_U_SHAPE
+    for j in range(nx):
+        if not math.isfinite(x[j]):
+            return STATUS_X_NONFINITE
+    for j in range(nu):
+        if not math.isfinite(u[j]):
+            return STATUS_U_NONFINITE
+    return STATUS_OK
+
+
+@njit(cache=True, inline="always")
+def check_step_args(dt, n):  # pragma: no cover - compiled
+    """Status code for a step length ``dt`` (positive, finite) and substep count ``n`` (>= 1)."""
+    if not (dt > 0.0 and math.isfinite(dt)):
+        return STATUS_BAD_DT
+    if n < 1:
+        return STATUS_BAD_N
+    return STATUS_OK
+
+
+@njit(cache=True, inline="always")
+def finite_status(x):  # pragma: no cover - compiled
+    """``STATUS_OK`` when the 1-D result ``x`` is finite, else ``STATUS_DIVERGED``."""
+    for j in range(x.shape[0]):
+        if not math.isfinite(x[j]):
+            return STATUS_DIVERGED
+    return STATUS_OK
 
 
 def rk4(

@@ -5,6 +5,12 @@ only reshapes ``(..., n)`` inputs to 2-D ``(N, n)`` batches, checks them once pe
 dispatches to a serial kernel (small N) or a ``prange`` kernel (large N). Both kernels inline
 the same per-state derivative, so a single state and a batch of 16384 run the same code and
 give the same bits.
+
+A single 1-D float64 state takes a fast path: an eagerly compiled kernel with a fixed signature
+(``_k_step1`` / ``_k_deriv1``, see :data:`wheelgym.integrators.STEP1_SIG`) checks shapes and
+finiteness inside the compiled code and reports a status code; numba's own type dispatch
+rejects anything else (lists, other dtypes, strided or read-only arrays) with ``TypeError``,
+and such calls take the general path.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from wheelgym import integrators as _itg
 from wheelgym.integrators import check_substeps
 
 __all__ = ["Params", "Model", "PARALLEL_MIN_BATCH"]
@@ -102,13 +109,23 @@ def _freeze(value: Any) -> Any:
     return value
 
 
+_ndarray = np.ndarray
+
+
 class Model:
     """Batched model API shared by all robots.
 
     Subclasses set the class attributes below and the compiled kernels
     ``_k_deriv(X, U, p, out)``, ``_k_step(X, U, p, h, n, out) -> bool`` and
     ``_k_step_par(...)`` (the same with ``prange``); the step kernels return ``False`` when an
-    input is not finite, before integrating anything.
+    input is not finite, before integrating anything. Optionally (for speed on one state)
+    ``_k_step1`` and ``_k_deriv1``, compiled with the signatures
+    :data:`~wheelgym.integrators.STEP1_SIG` / :data:`~wheelgym.integrators.DERIV1_SIG`, that
+    return a ``STATUS_*`` code of :mod:`wheelgym.integrators`.
+
+    Models opt into the checks of :mod:`wheelgym.validate` by providing ``stiffness()``
+    (stability margin), ``kinetic_energy``/``motor_power``/``friction_power`` (energy balance)
+    and ``friction_params`` (the parameters that :meth:`frictionless` sets to zero).
 
     Attributes:
         state_names: names of the state entries, in order.
@@ -116,6 +133,7 @@ class Model:
         params_type: the frozen parameter dataclass.
         default_sim_dt: physics substep (s) inside RK4's stability region at the defaults.
         default_ctrl_dt: control period (s).
+        friction_params: parameter names whose zero switches all friction off.
     """
 
     state_names: ClassVar[tuple[str, ...]] = ()
@@ -123,10 +141,13 @@ class Model:
     params_type: ClassVar[type[Params]] = Params
     default_sim_dt: ClassVar[float] = 0.002
     default_ctrl_dt: ClassVar[float] = 0.05
+    friction_params: ClassVar[tuple[str, ...]] = ()
 
     _k_deriv: ClassVar[Any]
     _k_step: ClassVar[Any]
     _k_step_par: ClassVar[Any]
+    _k_step1: ClassVar[Any] = None
+    _k_deriv1: ClassVar[Any] = None
 
     def __init__(self, params: Params | Mapping[str, Any] | None = None, **overrides: Any):
         if params is None:
@@ -143,6 +164,12 @@ class Model:
             )
         self.params = params
         self._p = params.pack()
+        # Instance attributes (not class lookups: a numba dispatcher found on the class would
+        # bind as a method) for the single-state fast path.
+        cls = type(self)
+        self._step1 = cls._k_step1
+        self._deriv1 = cls._k_deriv1
+        self._nx = len(cls.state_names)
 
     # ------------------------------------------------------------------ sizes and names
     @property
@@ -156,9 +183,21 @@ class Model:
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r})"
 
+    def frictionless(self) -> Model:
+        """The same model with every parameter in :attr:`friction_params` set to zero."""
+        if not self.friction_params:
+            raise NotImplementedError(f"{type(self).__name__} lists no friction_params")
+        return type(self)(self.params.replace(**{k: 0.0 for k in self.friction_params}))
+
     # ------------------------------------------------------------------ batching helpers
     def _as_batch(self, a: Any, width: int, name: str) -> np.ndarray:
-        arr = np.asarray(a, dtype=np.float64)
+        try:
+            arr = np.asarray(a, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(
+                f"{name} must be an array of numbers of shape (..., {width}) for "
+                f"{type(self).__name__}, got {type(a).__name__}"
+            ) from exc
         if arr.ndim == 0 or arr.shape[-1] != width:
             raise ValueError(
                 f"{name} must have shape (..., {width}) for {type(self).__name__}, "
@@ -167,11 +206,20 @@ class Model:
         return arr
 
     def _prepare(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
-        """Return C-contiguous 2-D ``X``, ``U`` with a common leading shape."""
+        """Return C-contiguous 2-D ``X``, ``U`` with a common leading shape.
+
+        Raises:
+            ValueError: wrong trailing sizes, or leading shapes that do not broadcast.
+        """
         X = self._as_batch(x, self.state_dim, "x")
         U = self._as_batch(u, self.input_dim, "u")
         if X.shape[:-1] != U.shape[:-1]:
-            lead = np.broadcast_shapes(X.shape[:-1], U.shape[:-1])
+            try:
+                lead = np.broadcast_shapes(X.shape[:-1], U.shape[:-1])
+            except ValueError:
+                raise ValueError(
+                    f"the leading shapes of x {X.shape} and u {U.shape} do not broadcast"
+                ) from None
             X = np.broadcast_to(X, lead + X.shape[-1:])
             U = np.broadcast_to(U, lead + U.shape[-1:])
         lead = X.shape[:-1]
@@ -179,12 +227,60 @@ class Model:
         U2 = np.ascontiguousarray(U.reshape(-1, self.input_dim))
         return X2, U2, lead
 
+    def _raise_status(self, status: int, method: str, x: Any, u: Any, dt: Any = None) -> None:
+        name = f"{type(self).__name__}.{method}"
+        if status == _itg.STATUS_X_SHAPE:
+            raise ValueError(
+                f"x must have shape (..., {self.state_dim}) for {name}, got {np.shape(x)}"
+            )
+        if status == _itg.STATUS_U_SHAPE:
+            raise ValueError(
+                f"u must have shape (..., {self.input_dim}) for {name}, got {np.shape(u)}"
+            )
+        if status == _itg.STATUS_X_NONFINITE:
+            raise ValueError(f"x passed to {name} is not finite: {x!r}")
+        if status == _itg.STATUS_U_NONFINITE:
+            raise ValueError(f"u passed to {name} is not finite: {u!r}")
+        if status == _itg.STATUS_BAD_DT:
+            raise ValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
+        if status == _itg.STATUS_BAD_N:
+            raise ValueError("n_substeps must be >= 1")
+        if status == _itg.STATUS_DIVERGED:
+            raise FloatingPointError(
+                f"{name} produced a non-finite state from finite input (dt={dt!r}); "
+                f"the substep is outside RK4's stability region or the state overflowed"
+            )
+        raise RuntimeError(f"{name}: unknown kernel status {status}")  # pragma: no cover
+
     # ------------------------------------------------------------------ public API
     def derivative(self, x: Any, u: Any) -> np.ndarray:
-        """State derivative ``xdot = f(x, u)``; ``(..., n)`` in, ``(..., n)`` out."""
+        """State derivative ``xdot = f(x, u)``; ``(..., n)`` in, ``(..., n)`` out.
+
+        Raises:
+            ValueError: on wrong shapes or a non-finite state or input.
+        """
+        if self._deriv1 is not None and type(x) is _ndarray and x.ndim == 1:
+            out = np.empty(self._nx)
+            try:
+                status = self._deriv1(x, u, self._p, out)
+            except TypeError:
+                pass  # not 1-D float64 arrays: the general path below
+            else:
+                if status == 0:
+                    return out
+                self._raise_status(status, "derivative", x, u)
         X, U, lead = self._prepare(x, u)
         out = np.empty_like(X)
         type(self)._k_deriv(X, U, self._p, out)
+        if not np.isfinite(out).all():
+            for name, arr in (("x", X), ("u", U)):
+                if not np.isfinite(arr).all():
+                    raise ValueError(
+                        f"{name} passed to {type(self).__name__}.derivative is not finite"
+                    )
+            raise FloatingPointError(  # pragma: no cover - finite input overflowed
+                f"{type(self).__name__}.derivative produced a non-finite value"
+            )
         return out.reshape(lead + (self.state_dim,))
 
     def step(self, x: Any, u: Any, dt: float, n_substeps: int = 1) -> np.ndarray:
@@ -197,27 +293,54 @@ class Model:
             n_substeps: RK4 substeps of ``dt / n_substeps`` each.
 
         Returns:
-            The new state, same leading shape as the inputs.
+            The new state (a new array), same leading shape as the inputs.
 
         Raises:
             ValueError: on a non-finite state or input, a bad ``dt``, or wrong shapes.
+            TypeError: if ``n_substeps`` is not an int, or ``x``/``u`` are not numeric.
+            FloatingPointError: if finite input produced a non-finite state (a ``dt``
+                far outside the stability region).
         """
+        # Fast path: one float64 state (the single-env case). Everything else is checked in
+        # the compiled kernel; numba's dispatch raises TypeError for other argument types.
+        if self._step1 is not None and type(x) is _ndarray and x.ndim == 1 and (
+            type(n_substeps) is int
+        ):
+            out = x.copy()
+            try:
+                status = self._step1(out, u, self._p, dt, n_substeps)
+            except TypeError:
+                pass
+            else:
+                if status == 0:
+                    return out
+                self._raise_status(status, "step", x, u, dt)
+        return self._step_general(x, u, dt, n_substeps)
+
+    def _step_general(self, x: Any, u: Any, dt: float, n_substeps: int) -> np.ndarray:
         n = check_substeps(n_substeps)
-        if not (isinstance(dt, (int, float, np.floating)) and math.isfinite(dt) and dt > 0):
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
+            raise TypeError(f"dt must be a number of seconds, got {type(dt).__name__}")
+        if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
         X, U, lead = self._prepare(x, u)
         out = np.empty_like(X)
         kernel = type(self)._k_step_par if X.shape[0] >= PARALLEL_MIN_BATCH else type(self)._k_step
         if not kernel(X, U, self._p, float(dt) / n, n, out):
-            bad = "x" if not np.all(np.isfinite(X)) else "u"
+            bad = "x" if not np.isfinite(X).all() else "u"
             raise ValueError(f"{bad} passed to {type(self).__name__}.step is not finite")
+        if not np.isfinite(out).all():
+            self._raise_status(_itg.STATUS_DIVERGED, "step", x, u, dt)
         return out.reshape(lead + (self.state_dim,))
 
     def n_substeps(self, ctrl_dt: float | None = None, sim_dt: float | None = None) -> int:
-        """Substeps per control step for this model's (or the given) time steps."""
-        from wheelgym.integrators import n_substeps
+        """Substeps per control step for this model's (or the given) time steps.
 
-        return n_substeps(
+        Raises:
+            ValueError: if ``ctrl_dt`` is not a whole multiple of ``sim_dt``, or either is not
+                a positive finite number.
+        """
+        return _itg.n_substeps(
             self.default_ctrl_dt if ctrl_dt is None else ctrl_dt,
             self.default_sim_dt if sim_dt is None else sim_dt,
         )
