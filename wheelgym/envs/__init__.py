@@ -1,0 +1,98 @@
+"""Gymnasium environments of wheelgym (one class per robot; documentation per class)."""
+
+from wheelgym.envs.core import WheelCore
+from wheelgym.envs.wheel_env import _DOC, WheelEnv
+
+__all__ = ["WheelCore", "WheelEnv", "SkidSteerEnv", "ThreeWheelEnv", "CasterAGVEnv",
+           "DiffDriveEnv", "UnicycleEnv", "BicycleEnv", "AckermannEnv"]
+
+
+class SkidSteerEnv(WheelEnv):
+    """Four-wheel skid-steer robot (Husky-like; physics.md section 3, Kozlowski-Pazderski).
+
+    ## Description
+    A 56.6 kg platform with four fixed wheels, two motors per side; turning skids the wheels
+    sideways (lateral friction ``mu_l``), the ICR sits at ``x_icr`` (SS-1).
+
+    ## Action Space
+    ``Box(-1, 1, (4,))``. ``torque``: ``tau_k = a_k tau_max`` (30 N·m), motors [rear-left,
+    front-left, front-right, rear-right]. ``velocity``: ``(vx, wz) = a * (1.0 m/s, 2.0 rad/s)``
+    tracked by :class:`wheelgym.control.TwistController` (shape ``(2,)``).
+
+    ## Observation Space
+    Task table in the module notes below; the robot adds no features (``vy = -x_icr wz``).
+
+    ## Starting State, Episode End, Rewards
+    See the task notes. Speed limits: 2.5 m/s, 5 rad/s.
+
+    ## Version History
+    * v0: initial version.
+    """ + _DOC
+
+    robot = "SkidSteer"
+
+
+class ThreeWheelEnv(WheelEnv):
+    """Three-wheel redundantly actuated robot (physics.md section 2, three-wheel paper).
+
+    ## Description
+    A 23 kg platform on three off-centred steerable wheel modules (rear-left, rear-right,
+    front), each with a drive and a steering motor: six motors for three degrees of freedom.
+
+    ## Action Space
+    ``torque``: ``Box(-1, 1, (6,))``, ``tau = a * (6, 6, 6, 3, 3, 3) N·m`` in motor order
+    [drive_1..3, steer_1..3]. ``velocity``: ``Box(-1, 1, (3,))``, ``(vx, vy, wz) = a * (1.0,
+    1.0, 2.0)`` (m/s, m/s, rad/s) tracked by :class:`wheelgym.control.TwistController`.
+
+    ## Observation Space
+    Task table below, plus 6 features: cos psi_1..3, sin psi_1..3 (steering angles).
+
+    ## Starting State, Episode End, Rewards
+    See the task notes. Speed limits: 2.0 m/s, 4 rad/s. ``internal_force`` is the norm of
+    the null-space component of the motor torques, ``(I - J (J^T J)^-1 J^T) tau`` (TW-6, the
+    three-wheel paper (36)): torques that push the motors against each other.
+
+    ## Version History
+    * v0: initial version.
+    """ + _DOC
+
+    robot = "ThreeWheel"
+
+
+class CasterAGVEnv(WheelEnv):
+    """Differential-drive AGV with a passive trailing caster (physics.md section 5).""" + _DOC
+
+    robot = "CasterAGV"
+
+
+class DiffDriveEnv(WheelEnv):
+    """Kinematic differential drive (physics.md section 4).
+
+    ## Action Space
+    ``Box(-1, 1, (2,))`` mapped onto the input mode's bounds: ``WheelSpeeds`` (phidot_L,
+    phidot_R in rad/s, default) or ``VehicleSpeedHeadingRate`` (v m/s, w rad/s).
+    No motors: ``motor_torque`` and ``joint_velocity`` are empty and ``energy`` stays 0.
+    """ + _DOC
+
+    robot = "DiffDrive"
+
+
+class UnicycleEnv(WheelEnv):
+    """Kinematic unicycle (physics.md section 4); action modes ``WheelSpeedHeadingRate``
+    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds.""" + _DOC
+
+    robot = "Unicycle"
+
+
+class BicycleEnv(WheelEnv):
+    """Kinematic bicycle (physics.md section 4); action modes ``VehicleSpeedSteeringAngle``
+    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds.""" + _DOC
+
+    robot = "Bicycle"
+
+
+class AckermannEnv(WheelEnv):
+    """Kinematic Ackermann car (physics.md section 4); action ``(v, psidot)`` scaled onto the
+    model's bounds; the steering angle is an extra feature (cos, sin).""" + _DOC
+
+    robot = "Ackermann"

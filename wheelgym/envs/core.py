@@ -1,0 +1,346 @@
+"""Batch-first engine of every wheelgym environment.
+
+:class:`WheelCore` holds N robots in arrays with a leading axis N. The single
+:class:`~wheelgym.envs.wheel_env.WheelEnv` is the core at N = 1; the vector environments are the
+same core at N > 1. Every per-step operation is per row (compiled loops over rows, no matrix
+product across the batch), and every random draw of row i comes from ``rngs[i]``, so row i of a
+batch reset with generator ``G`` is bit for bit the single environment reset with ``G``.
+
+Core API::
+
+    core = WheelCore("ThreeWheel", num=N, task="goal", action_mode="torque", ...)
+    obs = core.reset(rows, rngs, options)  # rows: index array; rngs: N generators
+    obs, reward, terminated, info = core.step(actions)  # actions (N, action_dim)
+
+``obs`` is the core's float32 buffer ``(N, obs_dim)`` (copy what you keep); ``info`` is a dict
+of per-row arrays (see :meth:`WheelCore.step`). The core never truncates: time limits belong to
+the wrappers (``max_episode_steps``); ``horizon`` only sizes the track task's reference table.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
+from wheelgym.integrators import n_substeps
+from wheelgym.tasks._kernels import k_noise
+from wheelgym.tasks.tasks import TASKS, NavigateTask, Task, TrackTask
+
+__all__ = ["WheelCore", "DEFAULT_HORIZON"]
+
+#: Default episode length (control steps) of every registered id.
+DEFAULT_HORIZON = 500
+
+
+def _check_dt(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a positive number of seconds, got {value!r}")
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a positive finite number of seconds, got {value!r}")
+    return v
+
+
+class WheelCore:
+    """N robots of one kind on one task (see the module docstring for the API).
+
+    Args:
+        robot: robot name (``"ThreeWheel"``, ``"SkidSteer"``...).
+        num: batch size N.
+        task, action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights:
+            as documented on :class:`~wheelgym.envs.wheel_env.WheelEnv`.
+        horizon: episode length in control steps (sizes the track task's reference table).
+        range_backend: ``"analytic"`` (compiled rays) or ``"pymunk"`` (segment queries) for
+            the navigate task's range sensor.
+    """
+
+    def __init__(
+        self,
+        robot: str,
+        num: int = 1,
+        *,
+        task: str = "goal",
+        action_mode: str | None = None,
+        params: Mapping[str, Any] | None = None,
+        ctrl_dt: float | None = None,
+        sim_dt: float | None = None,
+        randomize: Mapping[str, Any] | bool | None = None,
+        obs_noise: float = 0.0,
+        reward_weights: Mapping[str, float] | None = None,
+        horizon: int = DEFAULT_HORIZON,
+        range_backend: str = "analytic",
+    ) -> None:
+        spec: RobotSpec = get_spec(robot)
+        self.spec = spec
+        if isinstance(num, bool) or not isinstance(num, (int, np.integer)) or num < 1:
+            raise ValueError(f"num must be a positive int, got {num!r}")
+        self.num = N = int(num)
+        if task not in TASKS:
+            raise ValueError(f"unknown task {task!r}; valid tasks: {list(TASKS)}")
+        self.task_name = task
+        mode = spec.action_modes[0] if action_mode is None else action_mode
+        if mode not in spec.action_modes:
+            raise ValueError(
+                f"unknown action_mode {action_mode!r} for {spec.name}; valid modes: "
+                f"{list(spec.action_modes)}"
+            )
+        self.action_mode = mode
+        self.kinematic = spec.n_motor == 0
+        if params is not None and not isinstance(params, Mapping):
+            raise TypeError(f"params must be a dict of parameter overrides, got {params!r}")
+        model_kw = {"input_mode": mode} if self.kinematic else {}
+        self.model = spec.model_cls(dict(params or {}), **model_kw)
+        self.base_params = self.model.params
+        self.dt = _check_dt("ctrl_dt", self.model.default_ctrl_dt if ctrl_dt is None else ctrl_dt)
+        sdt = _check_dt("sim_dt", self.model.default_sim_dt if sim_dt is None else sim_dt)
+        if sdt > self.dt:
+            raise ValueError(f"sim_dt ({sdt}) must not exceed ctrl_dt ({self.dt})")
+        self.n_sub = n_substeps(self.dt, sdt)
+        self.h = self.dt / self.n_sub
+        self.randomize = self._check_randomize(randomize)
+        obs_noise = float(obs_noise)
+        if not (math.isfinite(obs_noise) and obs_noise >= 0):
+            raise ValueError(f"obs_noise must be a finite number >= 0, got {obs_noise!r}")
+        self.obs_noise = obs_noise
+        if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
+            raise ValueError(f"horizon must be a positive int, got {horizon!r}")
+        self.horizon = int(horizon)
+        if reward_weights is not None and not isinstance(reward_weights, Mapping):
+            raise TypeError(f"reward_weights must be a dict, got {reward_weights!r}")
+
+        # action sizes and the velocity mode's controller
+        if self.kinematic:
+            self.action_dim = self.model.input_dim
+        elif mode == "velocity":
+            self.action_dim = spec.twist_dim
+            self.twist_max = np.array(spec.twist_max)
+            from wheelgym.control import TwistController
+
+            self.controller = TwistController(self.model)
+        else:
+            self.action_dim = spec.n_motor
+        m = self.model.input_dim
+        nx = self.model.state_dim
+        nf = len(spec.feat_names)
+        self.vclip = 2.0 * spec.v_max
+        self.wclip = 2.0 * spec.w_max
+        self.fclip = np.array(spec.feat_high, dtype=np.float64)
+
+        # per-row state
+        self.X = np.zeros((N, nx))
+        self.Xo = np.zeros((N, nx))
+        p0 = self.model._p
+        self.P = np.tile(p0, (N, 1))
+        lo, hi = spec.input_bounds(self.base_params, mode) if not self.kinematic else \
+            self.model.input_bounds()
+        self.LO = np.tile(lo, (N, 1))
+        self.HI = np.tile(hi, (N, 1))
+        self.A = np.zeros((N, m))
+        self.U = np.zeros((N, m))
+        self.jv = np.zeros((N, m))
+        self.energy = np.zeros(N)
+        self.eff = np.zeros(N)
+        self.pose = np.zeros((N, 3))
+        self.twist = np.zeros((N, 3))
+        self.feat = np.zeros((N, nf))
+        self.xf = np.zeros(N)
+        self.sat = np.zeros(N, dtype=np.bool_)
+        self.ok = np.ones(N, dtype=np.bool_)
+        self.steps = np.zeros(N, dtype=np.int64)
+        self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
+        self.params_rows = [self.base_params] * N
+
+        kw = {"range_backend": range_backend} if task == "navigate" else {}
+        if task != "navigate" and range_backend != "analytic":
+            raise ValueError("range_backend applies to task='navigate' only")
+        self.task: Task = TASKS[task](self, reward_weights, **kw)
+        self.obs_names, high = self.task.obs_layout()
+        self.obs_high = high.astype(np.float32)
+        self.obs_low = (self.task.obs_low() if isinstance(self.task, NavigateTask)
+                        else -high).astype(np.float32)
+        D = len(self.obs_names)
+        self.obs = np.zeros((N, D), dtype=np.float32)
+        self.terms = np.zeros((N, len(self.task.columns)))
+        self.reward = np.zeros(N)
+        self.term = np.zeros(N, dtype=np.bool_)
+        self.succ = np.zeros(N, dtype=np.bool_)
+        self.err = np.zeros(N)
+        self.rngs: Sequence[np.random.Generator] | None = None
+        self._scratch = None
+
+    # ------------------------------------------------------------------ validation
+    def _check_randomize(self, randomize) -> dict[str, tuple[float, float]]:
+        spec = self.spec
+        if randomize is None or randomize is False:
+            return {}
+        if randomize is True:
+            return dict(spec.default_randomize)
+        if not isinstance(randomize, Mapping):
+            raise TypeError(f"randomize must be a dict, True or None, got {randomize!r}")
+        out = {}
+        for k, v in randomize.items():
+            if k not in spec.randomize:
+                raise ValueError(
+                    f"unknown randomize key {k!r} for {spec.name}; valid keys: "
+                    f"{list(spec.randomize)} (all groups: {list(RANDOMIZE_GROUPS)})"
+                )
+            kinds = {kind for _, kind in spec.randomize[k]}
+            if np.ndim(v) == 0:
+                v = float(v)
+                if "abs" in kinds:
+                    raise ValueError(f"randomize[{k!r}] needs an absolute (low, high) range")
+                if not (math.isfinite(v) and 0 <= v < 1):
+                    raise ValueError(f"randomize[{k!r}] as a fraction must be in [0, 1), got {v}")
+                v = (1.0 - v, 1.0 + v)
+            lo, hi = (float(a) for a in v)
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(f"randomize[{k!r}] must be a finite (low, high), got {v!r}")
+            if "rel" in kinds and lo <= 0:
+                raise ValueError(f"randomize[{k!r}] relative factors must be > 0, got {v!r}")
+            out[k] = (lo, hi)
+        return out
+
+    # ------------------------------------------------------------------ reset
+    def _draw_params(self, i: int, rng: np.random.Generator) -> None:
+        base = self.base_params
+        if not self.randomize:
+            self.params_rows[i] = base
+            self.drawn[i] = {}
+            return
+        changes: dict[str, Any] = {}
+        drawn: dict[str, float] = {}
+        for group in self.spec.randomize:  # fixed order: reproducible draws
+            if group not in self.randomize:
+                continue
+            lo, hi = self.randomize[group]
+            for field, kind in self.spec.randomize[group]:
+                f = float(rng.uniform(lo, hi))
+                val = f * getattr(base, field) if kind == "rel" else f
+                changes[field] = val
+                drawn[field] = val
+        params = base.replace(**changes)
+        self.params_rows[i] = params
+        self.drawn[i] = drawn
+        if self.kinematic:
+            mdl = self.spec.model_cls(params, input_mode=self.action_mode)
+            self.P[i] = mdl._p
+            lo, hi = mdl.input_bounds()
+        else:
+            self.P[i] = params.pack()
+            lo, hi = self.spec.input_bounds(params, self.action_mode)
+        self.LO[i] = lo
+        self.HI[i] = hi
+
+    def reset(self, rows: Sequence[int] | np.ndarray | None,
+              rngs: Sequence[np.random.Generator], options: dict | None = None) -> np.ndarray:
+        """Start new episodes in ``rows`` (all when None) drawing row i from ``rngs[i]``.
+
+        Returns the observation buffer ``(N, obs_dim)``; rows not reset keep their values.
+        """
+        N = self.num
+        if len(rngs) != N:
+            raise ValueError(f"rngs must hold {N} generators, got {len(rngs)}")
+        self.rngs = rngs
+        idx = np.arange(N) if rows is None else np.asarray(rows, dtype=np.int64)
+        if idx.size == 0:
+            return self.obs
+        for i in idx:
+            self._draw_params(int(i), rngs[i])
+        poses = self.task.reset_rows(idx, rngs, options)
+        for n, i in enumerate(idx):
+            self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
+        self.energy[idx] = 0.0
+        self.steps[idx] = 0
+        # features at the start state: a zero-substep pass of the step kernel on copies
+        if self._scratch is None:
+            self._scratch = {k: np.empty_like(getattr(self, k)) for k in
+                             ("Xo", "U", "jv", "eff", "pose", "twist", "feat", "xf", "sat", "ok",
+                              "energy")}
+        s = self._scratch
+        A0 = np.zeros_like(self.A)
+        s["energy"][:] = 0.0
+        self.spec.k_env_step(self.X, A0, self.LO, self.HI, self.P, self.h, 0, s["Xo"], s["U"],
+                             s["jv"], s["energy"], s["eff"], s["pose"], s["twist"], s["feat"],
+                             s["xf"], s["sat"], s["ok"])
+        for k in ("pose", "twist", "feat", "jv"):
+            getattr(self, k)[idx] = s[k][idx]
+        self.U[idx] = 0.0
+        self.eff[idx] = 0.0
+        self.xf[idx] = 0.0
+        self.sat[idx] = False
+        self.ok[idx] = True
+        keep = (self.obs.copy(), self.terms.copy(), self.reward.copy(), self.term.copy(),
+                self.succ.copy(), self.err.copy())
+        self.task.evaluate()
+        self._noise(idx)
+        self.task.commit(idx)
+        mask = np.ones(N, dtype=np.bool_)
+        mask[idx] = False
+        for buf, old in zip((self.obs, self.terms, self.reward, self.term, self.succ, self.err),
+                            keep, strict=True):
+            buf[mask] = old[mask]
+        return self.obs
+
+    def _noise(self, idx) -> None:
+        if self.obs_noise <= 0:
+            return
+        noise = np.zeros(self.obs.shape)
+        for i in idx:
+            noise[i] = self.rngs[i].normal(0.0, self.obs_noise, self.obs.shape[1])
+        k_noise(self.obs, noise, self.obs_low, self.obs_high)
+
+    # ------------------------------------------------------------------ step
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """Advance every row one control period.
+
+        Args:
+            actions: ``(N, action_dim)`` in [-1, 1] (entries outside are clipped; a
+                non-finite entry raises ``ValueError``).
+
+        Returns:
+            ``obs (N, D) float32``, ``reward (N,)``, ``terminated (N,) bool`` and a dict of
+            buffers: ``pose``, ``twist``, ``motor_torque`` (``U``), ``joint_velocity``,
+            ``tracking_error``, ``energy``, ``internal_force``, ``saturated``, ``is_success``,
+            ``numerical_failure``, ``terms`` (N, n_columns). All are the core's buffers.
+        """
+        a = actions
+        if a.shape != self.A.shape or a.dtype != np.float64:
+            a = np.asarray(actions, dtype=np.float64)
+            if a.shape != self.A.shape:
+                raise ValueError(
+                    f"action must have shape {self.A.shape[1:] if self.num == 1 else self.A.shape}"
+                    f" (or {self.A.shape}), got {np.shape(actions)}"
+                )
+        if isinstance(self.task, TrackTask):
+            self.task.advance()
+        if self.action_mode == "velocity":
+            if not np.all(np.isfinite(a)):
+                raise ValueError("action must be finite")
+            cmd = np.clip(a, -1.0, 1.0) * self.twist_max
+            tau, csat = self.controller.torques(self.X, cmd)
+            A = tau / self.HI
+        else:
+            A = a
+        if not self.spec.k_env_step(self.X, A, self.LO, self.HI, self.P, self.h, self.n_sub,
+                                    self.Xo, self.U, self.jv, self.energy, self.eff, self.pose,
+                                    self.twist, self.feat, self.xf, self.sat, self.ok):
+            raise ValueError("action must be finite (got NaN or inf)")
+        if self.action_mode == "velocity":
+            self.sat |= np.asarray(csat, dtype=np.bool_).reshape(self.num) | \
+                np.any(np.abs(a) > 1.0, axis=1)
+        self.X, self.Xo = self.Xo, self.X
+        self.steps += 1
+        self.task.evaluate()
+        if self.obs_noise > 0:
+            self._noise(range(self.num))
+        self.task.commit()
+        return self.obs, self.reward, self.term, {
+            "pose": self.pose, "twist": self.twist, "motor_torque": self.U,
+            "joint_velocity": self.jv, "tracking_error": self.err, "energy": self.energy,
+            "internal_force": self.xf, "saturated": self.sat, "is_success": self.succ,
+            "numerical_failure": ~self.ok, "terms": self.terms,
+        }

@@ -1,0 +1,100 @@
+"""SkidSteer for the environments: compiled step kernel and geometry (physics.md section 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from wheelgym.envs.robots._body import env_step_body
+from wheelgym.envs.robots._spec import RobotSpec
+from wheelgym.models.skid_steer import _C, _R, _XICR, SkidSteer, SkidSteerParams, _deriv_one
+
+__all__ = ["SPEC"]
+
+
+@njit(cache=True, inline="always")
+def _jrate(x, p, out):  # pragma: no cover - compiled
+    # SS-1: omega_L = (vx - c wz)/r, omega_R = (vx + c wz)/r, motors [1, 2, 3, 4] = [L, L, R, R]
+    wl = (x[3] - p[_C] * x[4]) / p[_R]
+    wr = (x[3] + p[_C] * x[4]) / p[_R]
+    out[0] = wl
+    out[1] = wl
+    out[2] = wr
+    out[3] = wr
+
+
+@njit(cache=True, inline="always")
+def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
+    pose[0] = x[0]
+    pose[1] = x[1]
+    pose[2] = x[2]
+    twist[0] = x[3]
+    twist[1] = -p[_XICR] * x[4]  # SS-1 ICR constraint
+    twist[2] = x[4]
+    return 0.0
+
+
+@njit(cache=True)
+def k_env_step(X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff, pose, twist, feat, xf, sat,
+               ok):  # pragma: no cover - compiled
+    return env_step_body(_deriv_one, _jrate, _feats, X, A, LO, HI, P, h, n, Xo, U, jv, energy,
+                         eff, pose, twist, feat, xf, sat, ok)
+
+
+def _input_bounds(params: SkidSteerParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
+    t = np.full(4, params.tau_max)
+    return -t, t
+
+
+def _initial_state(pose: np.ndarray, params: SkidSteerParams) -> np.ndarray:
+    X = np.zeros((pose.shape[0], 5))
+    X[:, :3] = pose
+    return X
+
+
+def _geometry(p: SkidSteerParams) -> dict:
+    return {
+        "footprint": np.array([[-p.a - 0.12, p.c - 0.06], [p.b + 0.12, p.c - 0.06],
+                               [p.b + 0.12, -p.c + 0.06], [-p.a - 0.12, -p.c + 0.06]]),
+        "wheel_radius": p.r,
+        "wheel_width": 0.11,
+    }
+
+
+def _wheels(x: np.ndarray, p: SkidSteerParams) -> np.ndarray:
+    w = np.zeros((4, 3))
+    w[:, :2] = p.wheel_positions
+    return w
+
+
+SPEC = RobotSpec(
+    name="SkidSteer",
+    model_cls=SkidSteer,
+    k_env_step=k_env_step,
+    input_bounds=_input_bounds,
+    action_modes=("torque", "velocity"),
+    twist_dim=2,
+    twist_max=(1.0, 2.0),
+    v_max=2.5,
+    w_max=5.0,
+    feat_names=(),
+    feat_high=(),
+    radius=0.55,
+    randomize={
+        "mass": (("m", "rel"),),
+        "inertia": (("I", "rel"),),
+        "friction": (("mu_s", "rel"), ("mu_l", "rel")),
+        "x_icr": (("x_icr", "abs"),),
+        "wheel_radius": (("r", "rel"),),
+        "torque_limit": (("tau_max", "rel"),),
+    },
+    default_randomize={
+        "mass": (0.8, 1.2), "inertia": (0.8, 1.2), "friction": (0.7, 1.3),
+        "x_icr": (-0.08, 0.02), "wheel_radius": (0.95, 1.05), "torque_limit": (0.8, 1.2),
+    },
+    initial_state=_initial_state,
+    n_motor=4,
+    has_internal_force=False,
+    geometry=_geometry,
+    wheels=_wheels,
+)

@@ -1,0 +1,145 @@
+"""ThreeWheel for the environments: compiled step kernel and geometry (physics.md section 2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from wheelgym.envs.robots._body import env_step_body
+from wheelgym.envs.robots._spec import RobotSpec
+from wheelgym.models.three_wheel import (
+    _D,
+    _R,
+    ThreeWheel,
+    ThreeWheelParams,
+    _deriv_one,
+    _gh,
+    _solve3,
+    _trig,
+)
+
+__all__ = ["SPEC"]
+
+
+@njit(cache=True, inline="always")
+def _jrate(x, p, out):  # pragma: no cover - compiled
+    # TW-1: thetadot_i = g_i.u / r, psidot_i = h_i.u / d - wz; motor order [drive, steer]
+    cs = _trig(x[6], x[7], x[8])
+    vx = x[3]
+    vy = x[4]
+    wz = x[5]
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        out[i] = (g[0] * vx + g[1] * vy + g[2] * wz) / p[_R]
+        out[3 + i] = (h[0] * vx + h[1] * vy + h[2] * wz) / p[_D] - wz
+
+
+@njit(cache=True, inline="always")
+def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
+    for k in range(3):
+        pose[k] = x[k]
+        twist[k] = x[3 + k]
+        feat[k] = math.cos(x[6 + k])
+        feat[3 + k] = math.sin(x[6 + k])
+    # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36))
+    cs = _trig(x[6], x[7], x[8])
+    J = np.empty((6, 3))
+    for i in range(3):
+        g, h = _gh(cs, i, p)
+        for a in range(3):
+            J[i, a] = g[a] / p[_R]
+            J[3 + i, a] = h[a] / p[_D]
+        J[3 + i, 2] -= 1.0
+    m00 = m01 = m02 = m11 = m12 = m22 = 0.0
+    f0 = f1 = f2 = 0.0
+    for k in range(6):
+        m00 += J[k, 0] * J[k, 0]
+        m01 += J[k, 0] * J[k, 1]
+        m02 += J[k, 0] * J[k, 2]
+        m11 += J[k, 1] * J[k, 1]
+        m12 += J[k, 1] * J[k, 2]
+        m22 += J[k, 2] * J[k, 2]
+        f0 += J[k, 0] * u[k]
+        f1 += J[k, 1] * u[k]
+        f2 += J[k, 2] * u[k]
+    y0, y1, y2 = _solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
+    s = 0.0
+    for k in range(6):
+        e = u[k] - (J[k, 0] * y0 + J[k, 1] * y1 + J[k, 2] * y2)
+        s += e * e
+    return math.sqrt(s)
+
+
+@njit(cache=True)
+def k_env_step(X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff, pose, twist, feat, xf, sat,
+               ok):  # pragma: no cover - compiled
+    return env_step_body(_deriv_one, _jrate, _feats, X, A, LO, HI, P, h, n, Xo, U, jv, energy,
+                         eff, pose, twist, feat, xf, sat, ok)
+
+
+def _input_bounds(params: ThreeWheelParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
+    t = params.tau_max
+    return -t, t
+
+
+def _initial_state(pose: np.ndarray, params: ThreeWheelParams) -> np.ndarray:
+    X = np.zeros((pose.shape[0], 12))
+    X[:, :3] = pose  # at rest, every wheel trailing straight back (psi = 0)
+    return X
+
+
+def _geometry(p: ThreeWheelParams) -> dict:
+    a = p.axes_array
+    lo = a.min(axis=0) - 0.08
+    hi = a.max(axis=0) + 0.08
+    return {
+        "footprint": np.array([[lo[0], hi[1]], [hi[0], 0.6 * hi[1]], [hi[0], 0.6 * lo[1]],
+                               [lo[0], lo[1]]]),
+        "wheel_radius": p.r,
+        "wheel_width": 0.035,
+    }
+
+
+def _wheels(x: np.ndarray, p: ThreeWheelParams) -> np.ndarray:
+    a = p.axes_array
+    psi = np.asarray(x[6:9])
+    w = np.zeros((3, 3))
+    w[:, 0] = a[:, 0] - p.d * np.cos(psi)  # p_i = a_i - d e_i (TW-1)
+    w[:, 1] = a[:, 1] - p.d * np.sin(psi)
+    w[:, 2] = psi
+    return w
+
+
+SPEC = RobotSpec(
+    name="ThreeWheel",
+    model_cls=ThreeWheel,
+    k_env_step=k_env_step,
+    input_bounds=_input_bounds,
+    action_modes=("torque", "velocity"),
+    twist_dim=3,
+    twist_max=(1.0, 1.0, 2.0),
+    v_max=2.0,
+    w_max=4.0,
+    feat_names=("cos_psi_1", "cos_psi_2", "cos_psi_3", "sin_psi_1", "sin_psi_2", "sin_psi_3"),
+    feat_high=(1.0,) * 6,
+    radius=0.36,
+    randomize={
+        "mass": (("m_b", "rel"), ("m_w", "rel")),
+        "inertia": (("I_b", "rel"), ("I_wy", "rel"), ("I_wz", "rel")),
+        "friction": (("mu_r", "rel"), ("mu_p", "rel"), ("b_drive", "rel"), ("b_steer", "rel")),
+        "wheel_radius": (("r", "rel"),),
+        "caster_trail": (("d", "rel"),),
+        "torque_limit": (("tau_drive_max", "rel"), ("tau_steer_max", "rel")),
+    },
+    default_randomize={
+        "mass": (0.8, 1.2), "inertia": (0.8, 1.2), "friction": (0.5, 1.5),
+        "wheel_radius": (0.95, 1.05), "caster_trail": (0.8, 1.2), "torque_limit": (0.8, 1.2),
+    },
+    initial_state=_initial_state,
+    n_motor=6,
+    has_internal_force=True,
+    geometry=_geometry,
+    wheels=_wheels,
+)
