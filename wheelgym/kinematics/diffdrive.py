@@ -1,0 +1,132 @@
+"""Differential-drive inverse kinematics (diff-drive lecture sections 3 and 5.1).
+
+* :func:`wheel_speeds` inverts the lecture's forward relation ``v = r (w_L + w_R) / 2``,
+  ``w = r (w_R - w_L) / d`` (``d`` the track width, the lecture's ``2a``).
+* :func:`rtr` is the lecture's rotate-translate-rotate (RTR) method: the 3x2 Jacobian has no
+  inverse, so a pose change is split into a turn on the spot toward the goal, a straight run,
+  and a turn on the spot to the goal heading; in each motion the two wheel speeds are equal or
+  opposite, and each motion is integrated exactly by any consistent scheme.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+__all__ = ["wheel_speeds", "body_velocity", "Motion", "rtr", "wrap_angle"]
+
+
+def _positive(name: str, value: float) -> float:
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return value
+
+
+def wheel_speeds(v: Any, w: Any, wheel_radius: float, track_width: float) -> np.ndarray:
+    """Wheel speeds ``(phidot_L, phidot_R)`` (rad/s) of a body velocity ``(v, w)``.
+
+    ``phidot_L = (v - w d / 2) / r``, ``phidot_R = (v + w d / 2) / r`` (diff-drive lecture
+    section 3 inverted). ``v`` (m/s) and ``w`` (rad/s) broadcast; returns shape ``(..., 2)``.
+    """
+    r = _positive("wheel_radius", wheel_radius)
+    d = _positive("track_width", track_width)
+    v = np.asarray(v, dtype=np.float64)
+    w = np.asarray(w, dtype=np.float64)
+    return np.stack(np.broadcast_arrays((v - 0.5 * d * w) / r, (v + 0.5 * d * w) / r), axis=-1)
+
+
+def body_velocity(phidot: Any, wheel_radius: float, track_width: float) -> np.ndarray:
+    """Forward kinematics: ``(v, w)`` of wheel speeds ``(..., 2)`` (diff-drive lecture 3)."""
+    r = _positive("wheel_radius", wheel_radius)
+    d = _positive("track_width", track_width)
+    ph = np.asarray(phidot, dtype=np.float64)
+    if ph.ndim == 0 or ph.shape[-1] != 2:
+        raise ValueError(f"phidot must have shape (..., 2), got {ph.shape}")
+    return np.stack([0.5 * r * (ph[..., 0] + ph[..., 1]), r * (ph[..., 1] - ph[..., 0]) / d],
+                    axis=-1)
+
+
+def wrap_angle(a: Any) -> Any:
+    """Wrap angles to (-pi, pi]."""
+    out = np.pi - np.mod(np.pi - np.asarray(a, dtype=np.float64), 2.0 * np.pi)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+class Motion(NamedTuple):
+    """One motion of an RTR plan: constant wheel speeds held for ``duration`` seconds.
+
+    Attributes:
+        kind: ``"rotate"`` or ``"translate"``.
+        duration: time (s), >= 0 (0 for a motion that is not needed).
+        wheel_speeds: ``(phidot_L, phidot_R)`` (rad/s).
+        v: body speed (m/s).
+        w: yaw rate (rad/s).
+        amount: angle turned (rad) or signed distance driven (m).
+    """
+
+    kind: str
+    duration: float
+    wheel_speeds: tuple[float, float]
+    v: float
+    w: float
+    amount: float
+
+
+def rtr(
+    start: Any,
+    goal: Any,
+    wheel_radius: float,
+    track_width: float,
+    wheel_speed: float,
+    allow_reverse: bool = False,
+) -> tuple[Motion, Motion, Motion]:
+    """Rotate-translate-rotate decomposition of a pose change (diff-drive lecture 5.1).
+
+    Args:
+        start: start pose ``(x, y, yaw)`` (m, m, rad).
+        goal: goal pose ``(x, y, yaw)``.
+        wheel_radius: ``r`` (m).
+        track_width: ``d`` (m).
+        wheel_speed: magnitude of the wheel speeds used in every motion (rad/s), > 0.
+        allow_reverse: drive the straight segment backwards when the goal lies behind (turns
+            less than pi/2 then).
+
+    Returns:
+        Three :class:`Motion` records (rotate, translate, rotate). Holding each motion's wheel
+        speeds for its duration, in order, takes the robot from ``start`` to ``goal`` exactly
+        (the final yaw equals the goal's modulo 2 pi; each turn is at most pi).
+    """
+    r = _positive("wheel_radius", wheel_radius)
+    d = _positive("track_width", track_width)
+    ws = _positive("wheel_speed", wheel_speed)
+    s = np.asarray(start, dtype=np.float64)
+    g = np.asarray(goal, dtype=np.float64)
+    for name, a in (("start", s), ("goal", g)):
+        if a.shape != (3,):
+            raise ValueError(f"{name} must be a pose (x, y, yaw), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite, got {a}")
+    dx, dy = g[0] - s[0], g[1] - s[1]
+    dist = math.hypot(dx, dy)
+    if dist > 0.0:
+        a1 = wrap_angle(math.atan2(dy, dx) - s[2])
+        if allow_reverse and abs(a1) > 0.5 * math.pi:
+            a1 = wrap_angle(a1 - math.pi)
+            dist = -dist
+    else:
+        a1 = 0.0
+    a2 = wrap_angle(g[2] - s[2] - a1)
+
+    def rotate(angle: float) -> Motion:
+        sgn = math.copysign(1.0, angle) if angle != 0.0 else 0.0
+        w = sgn * 2.0 * r * ws / d  # lecture case 2: v_L = -v_R, w = v_R / a
+        return Motion("rotate", abs(angle) * d / (2.0 * r * ws), (-sgn * ws, sgn * ws), 0.0, w,
+                      angle)
+
+    sgn = math.copysign(1.0, dist) if dist != 0.0 else 0.0
+    translate = Motion("translate", abs(dist) / (r * ws), (sgn * ws, sgn * ws), sgn * r * ws, 0.0,
+                       dist)  # lecture case 1: v = v_L = v_R
+    return rotate(a1), translate, rotate(a2)

@@ -1,0 +1,614 @@
+"""Kinematic models: unicycle, bicycle, differential drive, Ackermann (physics.md section 4).
+
+The equations and input options are those of the kinematic-model reference (its ``VehicleInputs``
+names); the differential-drive relations are the diff-drive lecture's section 3. Every model has
+the pose state ``(x, y, yaw)`` (m, m, rad); :class:`Ackermann` adds the steering angle ``psi``.
+There are no forces: the input is a velocity command and the derivative is the reference's ODE.
+
+Saturation (applied inside the derivative, so ``derivative`` and ``step`` see the limited
+command; :meth:`KinematicModel.effective_input` returns it):
+
+* Unicycle, both modes: the command becomes a wheel speed ``phidot`` (``v / r`` in
+  ``VehicleSpeedHeadingRate``), which is clipped to ``wheel_speed_range``; then ``v = r phidot``
+  is clipped to ``speed_range``; the heading rate is clipped to ``[-max_heading_rate,
+  max_heading_rate]``.
+* Differential drive, both modes: the command becomes wheel speeds ``(phidot_L, phidot_R)``
+  (``(v -+ w d / 2) / r`` in ``VehicleSpeedHeadingRate``), each is clipped to
+  ``wheel_speed_range`` (as the motor drivers do; this can change the curvature), they are
+  converted back to ``v = r (L + R) / 2``, ``w = r (R - L) / d``, and ``v`` alone is then
+  clipped to ``speed_range``.
+* Bicycle: ``v`` is clipped to ``speed_range``; in ``VehicleSpeedSteeringAngle`` the steering
+  angle is clipped to ``[-max_steering_angle, max_steering_angle]``; in
+  ``VehicleSpeedHeadingRate`` the heading rate is clipped to what that steering limit allows at
+  the clipped speed, ``|w| <= |v| tan(max_steering_angle) / l`` (no turning at standstill).
+* Ackermann: ``v`` is clipped to ``speed_range`` and ``psidot`` to ``[-max_steering_rate,
+  max_steering_rate]``; the steering angle stops at ``+-max_steering_angle`` (``psidot`` is
+  zeroed when it would push ``psi`` past the limit, and ``tan`` reads ``psi`` clipped to it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit, prange
+
+from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.models._base import Model, Params
+
+__all__ = [
+    "KinematicModel",
+    "Unicycle",
+    "UnicycleParams",
+    "Bicycle",
+    "BicycleParams",
+    "DifferentialDrive",
+    "DifferentialDriveParams",
+    "Ackermann",
+    "AckermannParams",
+]
+
+# Layout of the packed parameter vector (shared by all kinematic models; unused slots are 0).
+(_KIND, _MODE, _R, _D, _L, _VLO, _VHI, _WSLO, _WSHI, _WMAX, _PSIMAX, _PSIDMAX) = range(12)
+_NP = 12
+
+# Model kinds and input modes (integers stored in the packed vector).
+_K_UNI, _K_BIC, _K_DD, _K_ACK = 0, 1, 2, 3
+_M_WSHR, _M_VSHR, _M_VSSA, _M_WS, _M_VSSR = 0, 1, 2, 3, 4
+_MODE_CODES = {
+    "WheelSpeedHeadingRate": _M_WSHR,
+    "VehicleSpeedHeadingRate": _M_VSHR,
+    "VehicleSpeedSteeringAngle": _M_VSSA,
+    "WheelSpeeds": _M_WS,
+    "VehicleSpeedSteeringRate": _M_VSSR,
+}
+
+
+def _check_range(obj: Params, name: str) -> tuple[float, float]:
+    value = getattr(obj, name)
+    if np.ndim(value) != 1 or len(value) != 2:
+        raise ValueError(
+            f"{type(obj).__name__}.{name} must be a (low, high) pair, got {value!r}"
+        )
+    lo, hi = float(value[0]), float(value[1])
+    if not lo <= hi:
+        raise ValueError(f"{type(obj).__name__}.{name} must have low <= high, got {value!r}")
+    return lo, hi
+
+
+def _intersect(obj: Params, a: tuple[float, float], b: tuple[float, float], what: str):
+    lo, hi = max(a[0], b[0]), min(a[1], b[1])
+    if lo > hi:
+        raise ValueError(
+            f"{type(obj).__name__}: {what} do not overlap ({a} and {b}); no speed is reachable"
+        )
+    return lo, hi
+
+
+# ---------------------------------------------------------------------------- parameters
+@dataclasses.dataclass(frozen=True)
+class UnicycleParams(Params):
+    """Unicycle parameters (kinematic-model reference, unicycle).
+
+    | name              | default      | unit  | meaning                                  |
+    |-------------------|--------------|-------|------------------------------------------|
+    | wheel_radius      | 0.1          | m     | wheel radius ``r``                       |
+    | speed_range       | (-1.0, 1.0)  | m/s   | vehicle speed limits ``v``               |
+    | wheel_speed_range | (-15., 15.)  | rad/s | wheel speed limits ``phidot``            |
+    | max_heading_rate  | 2.0          | rad/s | heading-rate limit ``abs(w)``            |
+    """
+
+    wheel_radius: float = 0.1
+    speed_range: tuple[float, float] = (-1.0, 1.0)
+    wheel_speed_range: tuple[float, float] = (-15.0, 15.0)
+    max_heading_rate: float = 2.0
+
+    _positive: ClassVar[tuple[str, ...]] = ("wheel_radius", "max_heading_rate")
+    _kind: ClassVar[int] = _K_UNI
+
+    def _check(self) -> None:
+        _check_range(self, "speed_range")
+        _check_range(self, "wheel_speed_range")
+        _intersect(self, self.speed_range, self.wheel_radius * np.asarray(self.wheel_speed_range),
+                   "speed_range and wheel_radius * wheel_speed_range")
+
+    def pack(self) -> np.ndarray:
+        p = np.zeros(_NP)
+        p[_KIND] = self._kind
+        p[_R] = self.wheel_radius
+        p[_VLO], p[_VHI] = self.speed_range
+        p[_WSLO], p[_WSHI] = self.wheel_speed_range
+        p[_WMAX] = self.max_heading_rate
+        return p
+
+
+@dataclasses.dataclass(frozen=True)
+class BicycleParams(Params):
+    """Bicycle parameters (kinematic-model reference, bicycle).
+
+    | name               | default      | unit | meaning                                   |
+    |--------------------|--------------|------|-------------------------------------------|
+    | wheelbase          | 0.5          | m    | axle distance ``l``                       |
+    | speed_range        | (-1.0, 2.0)  | m/s  | vehicle speed limits ``v``                |
+    | max_steering_angle | 0.5236       | rad  | steering limit ``abs(psi)`` (30 deg)      |
+    """
+
+    wheelbase: float = 0.5
+    speed_range: tuple[float, float] = (-1.0, 2.0)
+    max_steering_angle: float = math.radians(30.0)
+
+    _positive: ClassVar[tuple[str, ...]] = ("wheelbase", "max_steering_angle")
+    _kind: ClassVar[int] = _K_BIC
+
+    def _check(self) -> None:
+        _check_range(self, "speed_range")
+        if not self.max_steering_angle < math.pi / 2:
+            raise ValueError(
+                f"BicycleParams.max_steering_angle must be in (0, pi/2), "
+                f"got {self.max_steering_angle!r}"
+            )
+
+    def pack(self) -> np.ndarray:
+        p = np.zeros(_NP)
+        p[_KIND] = self._kind
+        p[_L] = self.wheelbase
+        p[_VLO], p[_VHI] = self.speed_range
+        p[_PSIMAX] = self.max_steering_angle
+        return p
+
+
+@dataclasses.dataclass(frozen=True)
+class DifferentialDriveParams(Params):
+    """Differential-drive parameters (kinematic-model reference; diff-drive lecture).
+
+    | name              | default      | unit  | meaning                                  |
+    |-------------------|--------------|-------|------------------------------------------|
+    | wheel_radius      | 0.1          | m     | wheel radius ``r``                       |
+    | track_width       | 0.5          | m     | wheel distance ``d`` (lecture: ``2a``)   |
+    | speed_range       | (-1.0, 1.0)  | m/s   | vehicle speed limits ``v``               |
+    | wheel_speed_range | (-12., 12.)  | rad/s | limits of each wheel speed               |
+    """
+
+    wheel_radius: float = 0.1
+    track_width: float = 0.5
+    speed_range: tuple[float, float] = (-1.0, 1.0)
+    wheel_speed_range: tuple[float, float] = (-12.0, 12.0)
+
+    _positive: ClassVar[tuple[str, ...]] = ("wheel_radius", "track_width")
+    _kind: ClassVar[int] = _K_DD
+
+    def _check(self) -> None:
+        _check_range(self, "speed_range")
+        _check_range(self, "wheel_speed_range")
+        _intersect(self, self.speed_range, self.wheel_radius * np.asarray(self.wheel_speed_range),
+                   "speed_range and wheel_radius * wheel_speed_range")
+
+    def pack(self) -> np.ndarray:
+        p = np.zeros(_NP)
+        p[_KIND] = self._kind
+        p[_R] = self.wheel_radius
+        p[_D] = self.track_width
+        p[_VLO], p[_VHI] = self.speed_range
+        p[_WSLO], p[_WSHI] = self.wheel_speed_range
+        return p
+
+
+@dataclasses.dataclass(frozen=True)
+class AckermannParams(Params):
+    """Ackermann parameters (kinematic-model reference, Ackermann).
+
+    | name               | default      | unit  | meaning                                  |
+    |--------------------|--------------|-------|------------------------------------------|
+    | wheelbase          | 0.5          | m     | axle distance ``l``                      |
+    | track_width        | 0.4          | m     | wheel distance (geometry only; the ODE   |
+    |                    |              |       | of the reference does not use it)        |
+    | speed_range        | (-1.0, 2.0)  | m/s   | vehicle speed limits ``v``               |
+    | max_steering_angle | 0.5236       | rad   | steering limit ``abs(psi)`` (30 deg)     |
+    | max_steering_rate  | 1.5          | rad/s | steering-rate limit ``abs(psidot)``      |
+    """
+
+    wheelbase: float = 0.5
+    track_width: float = 0.4
+    speed_range: tuple[float, float] = (-1.0, 2.0)
+    max_steering_angle: float = math.radians(30.0)
+    max_steering_rate: float = 1.5
+
+    _positive: ClassVar[tuple[str, ...]] = (
+        "wheelbase", "track_width", "max_steering_angle", "max_steering_rate"
+    )
+    _kind: ClassVar[int] = _K_ACK
+
+    def _check(self) -> None:
+        _check_range(self, "speed_range")
+        if not self.max_steering_angle < math.pi / 2:
+            raise ValueError(
+                f"AckermannParams.max_steering_angle must be in (0, pi/2), "
+                f"got {self.max_steering_angle!r}"
+            )
+
+    def pack(self) -> np.ndarray:
+        p = np.zeros(_NP)
+        p[_KIND] = self._kind
+        p[_D] = self.track_width
+        p[_L] = self.wheelbase
+        p[_VLO], p[_VHI] = self.speed_range
+        p[_PSIMAX] = self.max_steering_angle
+        p[_PSIDMAX] = self.max_steering_rate
+        return p
+
+
+# ---------------------------------------------------------------------------- compiled pieces
+@njit(cache=True, inline="always")
+def _clip(a, lo, hi):  # pragma: no cover - compiled
+    return min(max(a, lo), hi)
+
+
+@njit(cache=True, inline="always")
+def _effective(x, u, p):  # pragma: no cover - compiled
+    """Saturated body command ``(v, w, psidot)`` (module docstring for the order)."""
+    kind = int(p[_KIND])
+    mode = int(p[_MODE])
+    psidot = 0.0
+    if kind == _K_UNI:
+        r = p[_R]
+        phidot = u[0] if mode == _M_WSHR else u[0] / r
+        phidot = _clip(phidot, p[_WSLO], p[_WSHI])
+        v = _clip(r * phidot, p[_VLO], p[_VHI])  # reference: v = r phidot
+        w = _clip(u[1], -p[_WMAX], p[_WMAX])
+    elif kind == _K_DD:
+        r, d = p[_R], p[_D]
+        if mode == _M_WS:
+            wl, wr = u[0], u[1]
+        else:  # diff-drive lecture section 3, inverted
+            wl = (u[0] - 0.5 * d * u[1]) / r
+            wr = (u[0] + 0.5 * d * u[1]) / r
+        wl = _clip(wl, p[_WSLO], p[_WSHI])
+        wr = _clip(wr, p[_WSLO], p[_WSHI])
+        v = _clip(0.5 * r * (wl + wr), p[_VLO], p[_VHI])  # reference: v = r (L + R) / 2
+        w = r * (wr - wl) / d  # reference: w = r (R - L) / d
+    elif kind == _K_BIC:
+        v = _clip(u[0], p[_VLO], p[_VHI])
+        if mode == _M_VSSA:
+            psi = _clip(u[1], -p[_PSIMAX], p[_PSIMAX])
+            w = v * math.tan(psi) / p[_L]  # reference: yawdot = v tan(psi) / l
+        else:
+            wlim = abs(v) * math.tan(p[_PSIMAX]) / p[_L]
+            w = _clip(u[1], -wlim, wlim)
+    else:  # Ackermann: reference ODE, psi integrates
+        v = _clip(u[0], p[_VLO], p[_VHI])
+        psimax = p[_PSIMAX]
+        psi = _clip(x[3], -psimax, psimax)
+        w = v * math.tan(psi) / p[_L]
+        psidot = _clip(u[1], -p[_PSIDMAX], p[_PSIDMAX])
+        if (x[3] >= psimax and psidot > 0.0) or (x[3] <= -psimax and psidot < 0.0):
+            psidot = 0.0
+    return v, w, psidot
+
+
+@njit(cache=True)
+def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    v, w, psidot = _effective(x, u, p)
+    yaw = x[2]
+    out[0] = math.cos(yaw) * v  # reference: xdot = v cos(theta)
+    out[1] = math.sin(yaw) * v  # ydot = v sin(theta)
+    out[2] = w  # thetadot = w
+    if x.shape[0] > 3:
+        out[3] = psidot  # Ackermann: psidot
+
+
+@njit(cache=True)
+def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
+    for i in range(X.shape[0]):
+        _deriv_one(X[i], U[i], p, out[i])
+
+
+@njit(cache=True)
+def _k_effective(X, U, p, out):  # pragma: no cover - compiled
+    for i in range(X.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = _effective(X[i], U[i], p)
+
+
+@njit(cache=True)
+def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    work = np.empty((5, X.shape[1]))
+    for i in range(X.shape[0]):
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+@njit(cache=True)
+def _k_step1(x, u, p, h, n, out):  # pragma: no cover - compiled
+    """Single-state step (the fast path of :meth:`KinematicModel.step`)."""
+    for j in range(x.shape[0]):
+        if not np.isfinite(x[j]):
+            return False
+    for j in range(u.shape[0]):
+        if not np.isfinite(u[j]):
+            return False
+    work = np.empty((5, x.shape[0]))
+    out[:] = x
+    rk4_inplace(_deriv_one, out, u, p, h, n, work)
+    return True
+
+
+@njit(cache=True, parallel=True)
+def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    for i in prange(X.shape[0]):
+        work = np.empty((5, X.shape[1]))
+        out[i] = X[i]
+        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    return True
+
+
+# ---------------------------------------------------------------------------- the models
+class KinematicModel(Model):
+    """Shared machinery of the kinematic models: input modes, saturation, bounds.
+
+    Args:
+        params: the parameter dataclass, a mapping, or ``None`` for the defaults.
+        input_mode: one of the model's :attr:`input_modes` (the reference's names).
+        **overrides: parameter overrides.
+
+    Raises:
+        ValueError: on an unknown ``input_mode`` (the message lists the valid ones).
+    """
+
+    state_names = ("x", "y", "yaw")
+    #: Valid input modes and the names of their two inputs.
+    input_modes: ClassVar[dict[str, tuple[str, str]]] = {}
+    default_input_mode: ClassVar[str] = ""
+    default_sim_dt = 0.05  # exact for constant commands up to RK4 round-off
+    default_ctrl_dt = 0.05
+
+    _k_deriv = _k_deriv
+    _k_step = _k_step
+    _k_step_par = _k_step_par
+
+    def __init__(
+        self,
+        params: Params | dict[str, Any] | None = None,
+        input_mode: str | None = None,
+        **overrides: Any,
+    ):
+        super().__init__(params, **overrides)
+        mode = self.default_input_mode if input_mode is None else input_mode
+        if not isinstance(mode, str):
+            raise TypeError(
+                f"input_mode must be a str, one of {list(self.input_modes)}, "
+                f"got {type(mode).__name__}"
+            )
+        if mode not in self.input_modes:
+            raise ValueError(
+                f"unknown input_mode {mode!r} for {type(self).__name__}; valid modes: "
+                f"{list(self.input_modes)}"
+            )
+        self.input_mode = mode
+        self.input_names = self.input_modes[mode]
+        self._p[_MODE] = _MODE_CODES[mode]
+        self._xshape = (len(self.state_names),)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.params!r}, input_mode={self.input_mode!r})"
+
+    def step(self, x: Any, u: Any, dt: float, n_substeps: int = 1) -> np.ndarray:
+        """Advance by ``dt`` with RK4 (see :meth:`Model.step`).
+
+        A single float64 state ``(n,)`` with input ``(2,)`` takes a fast path that skips the
+        batching layer (same compiled derivative, same bits); everything else goes through
+        :meth:`Model.step`.
+        """
+        if (
+            type(x) is np.ndarray
+            and type(u) is np.ndarray
+            and x.dtype == np.float64
+            and u.dtype == np.float64
+            and x.shape == self._xshape
+            and u.shape == (2,)
+            and type(n_substeps) is int
+            and n_substeps >= 1
+            and type(dt) is float
+            and 0.0 < dt < math.inf
+        ):
+            out = np.empty(self._xshape)
+            if _k_step1(x, u, self._p, dt / n_substeps, n_substeps, out):
+                return out
+        return super().step(x, u, dt, n_substeps)
+
+    def effective_input(self, x: Any, u: Any) -> np.ndarray:
+        """The saturated command ``(v, w)`` (m/s, rad/s), plus ``psidot`` for Ackermann.
+
+        Shape ``(..., 2)`` (``(..., 3)`` for Ackermann); this is what the derivative integrates.
+        """
+        X, U, lead = self._prepare(x, u)
+        out = np.empty((X.shape[0], 3))
+        _k_effective(X, U, self._p, out)
+        k = 3 if self.state_dim > 3 else 2
+        return out[:, :k].reshape(lead + (k,))
+
+    def input_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)`` of the current mode's inputs in physical units.
+
+        These are the reachable ranges after all limits (for example the unicycle's vehicle
+        speed in ``VehicleSpeedHeadingRate`` is the intersection of ``speed_range`` and
+        ``wheel_radius * wheel_speed_range``); environments scale actions in [-1, 1] onto them.
+        """
+        lo, hi = self._bounds()
+        return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+
+    def _bounds(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        raise NotImplementedError
+
+
+class Unicycle(KinematicModel):
+    """Unicycle (kinematic-model reference, unicycle equations).
+
+    | index | state | unit |   | mode                      | inputs      | units        |
+    |-------|-------|------|---|---------------------------|-------------|--------------|
+    | 0     | x     | m    |   | ``WheelSpeedHeadingRate`` | (phidot, w) | rad/s, rad/s |
+    | 1     | y     | m    |   | ``VehicleSpeedHeadingRate`` | (v, w)    | m/s, rad/s   |
+    | 2     | yaw   | rad  |   |                           |             |              |
+
+    ``xdot = v cos(yaw)``, ``ydot = v sin(yaw)``, ``yawdot = w`` with ``v = r phidot``.
+    Saturation: module docstring. Default mode ``WheelSpeedHeadingRate`` (as the reference).
+    """
+
+    params_type = UnicycleParams
+    params: UnicycleParams
+    input_modes = {
+        "WheelSpeedHeadingRate": ("phidot", "w"),
+        "VehicleSpeedHeadingRate": ("v", "w"),
+    }
+    default_input_mode = "WheelSpeedHeadingRate"
+
+    def _bounds(self):
+        p = self.params
+        r = p.wheel_radius
+        vlo, vhi = _intersect(p, p.speed_range, r * np.asarray(p.wheel_speed_range), "ranges")
+        wm = p.max_heading_rate
+        if self.input_mode == "WheelSpeedHeadingRate":
+            return (vlo / r, -wm), (vhi / r, wm)
+        return (vlo, -wm), (vhi, wm)
+
+
+class Bicycle(KinematicModel):
+    """Bicycle (kinematic-model reference, bicycle equations; reference point: rear axle).
+
+    | index | state | unit |   | mode                          | inputs   | units      |
+    |-------|-------|------|---|-------------------------------|----------|------------|
+    | 0     | x     | m    |   | ``VehicleSpeedSteeringAngle`` | (v, psi) | m/s, rad   |
+    | 1     | y     | m    |   | ``VehicleSpeedHeadingRate``   | (v, w)   | m/s, rad/s |
+    | 2     | yaw   | rad  |   |                               |          |            |
+
+    ``yawdot = v tan(psi) / l`` (turning radius ``l / tan(psi)``). Default mode
+    ``VehicleSpeedSteeringAngle`` (as the reference). Saturation: module docstring.
+    """
+
+    params_type = BicycleParams
+    params: BicycleParams
+    input_modes = {
+        "VehicleSpeedSteeringAngle": ("v", "psi"),
+        "VehicleSpeedHeadingRate": ("v", "w"),
+    }
+    default_input_mode = "VehicleSpeedSteeringAngle"
+
+    def _bounds(self):
+        p = self.params
+        vlo, vhi = p.speed_range
+        if self.input_mode == "VehicleSpeedSteeringAngle":
+            return (vlo, -p.max_steering_angle), (vhi, p.max_steering_angle)
+        wm = max(abs(vlo), abs(vhi)) * math.tan(p.max_steering_angle) / p.wheelbase
+        return (vlo, -wm), (vhi, wm)
+
+
+class DifferentialDrive(KinematicModel):
+    """Differential drive (kinematic-model reference; diff-drive lecture section 3).
+
+    | index | state | unit |   | mode                        | inputs              | units  |
+    |-------|-------|------|---|-----------------------------|---------------------|--------|
+    | 0     | x     | m    |   | ``WheelSpeeds``             | (phidot_L, phidot_R) | rad/s |
+    | 1     | y     | m    |   | ``VehicleSpeedHeadingRate`` | (v, w)              | m/s, rad/s |
+    | 2     | yaw   | rad  |   |                             |                     |        |
+
+    ``v = r (phidot_L + phidot_R) / 2``, ``w = r (phidot_R - phidot_L) / d``. Default mode
+    ``WheelSpeeds`` (as the reference). Saturation: module docstring. Inverse kinematics and the
+    rotate-translate-rotate decomposition: :mod:`wheelgym.kinematics.diffdrive`.
+    """
+
+    params_type = DifferentialDriveParams
+    params: DifferentialDriveParams
+    input_modes = {
+        "WheelSpeeds": ("phidot_L", "phidot_R"),
+        "VehicleSpeedHeadingRate": ("v", "w"),
+    }
+    default_input_mode = "WheelSpeeds"
+
+    def _bounds(self):
+        p = self.params
+        r, d = p.wheel_radius, p.track_width
+        wslo, wshi = p.wheel_speed_range
+        if self.input_mode == "WheelSpeeds":
+            return (wslo, wslo), (wshi, wshi)
+        vlo, vhi = _intersect(p, p.speed_range, (r * wslo, r * wshi), "ranges")
+        wm = r * (wshi - wslo) / d
+        return (vlo, -wm), (vhi, wm)
+
+    def wheel_speeds(self, v: Any, w: Any) -> np.ndarray:
+        """Inverse kinematics ``(phidot_L, phidot_R)`` (rad/s) of a body velocity (no limits).
+
+        See :func:`wheelgym.kinematics.diffdrive.wheel_speeds`.
+        """
+        from wheelgym.kinematics.diffdrive import wheel_speeds
+
+        return wheel_speeds(v, w, self.params.wheel_radius, self.params.track_width)
+
+    def max_symmetric_wheel_speed(self) -> float:
+        """Largest ``s`` (rad/s) with wheel speeds ``+-s`` and ``v = +-r s`` inside all limits."""
+        p = self.params
+        wslo, wshi = p.wheel_speed_range
+        vlo, vhi = p.speed_range
+        return float(min(-wslo, wshi, -vlo / p.wheel_radius, vhi / p.wheel_radius))
+
+    def rtr(self, start: Any, goal: Any, wheel_speed: float | None = None,
+            allow_reverse: bool = False):
+        """Rotate-translate-rotate plan from ``start`` to ``goal`` (diff-drive lecture 5.1).
+
+        Args:
+            start: pose ``(x, y, yaw)``.
+            goal: pose ``(x, y, yaw)``.
+            wheel_speed: wheel-speed magnitude (rad/s); default
+                :meth:`max_symmetric_wheel_speed` (every motion then stays inside the limits).
+            allow_reverse: drive backwards when the goal lies behind.
+
+        Returns:
+            Three :class:`wheelgym.kinematics.diffdrive.Motion` records; feeding each
+            motion's ``wheel_speeds`` in ``WheelSpeeds`` mode for its ``duration`` reaches
+            the goal exactly.
+
+        Raises:
+            ValueError: if the limits admit no symmetric wheel speed (a robot that cannot
+                both turn on the spot and drive), or ``wheel_speed`` is not positive.
+        """
+        from wheelgym.kinematics.diffdrive import rtr
+
+        if wheel_speed is None:
+            wheel_speed = self.max_symmetric_wheel_speed()
+            if not wheel_speed > 0:
+                raise ValueError(
+                    "the speed ranges of this DifferentialDrive admit no symmetric wheel "
+                    "speed (both signs must be reachable for rotate-translate-rotate)"
+                )
+        return rtr(start, goal, self.params.wheel_radius, self.params.track_width,
+                   wheel_speed, allow_reverse)
+
+
+class Ackermann(KinematicModel):
+    """Ackermann steering (kinematic-model reference, Ackermann equations).
+
+    | index | state | unit |   | index | input  | unit  |
+    |-------|-------|------|---|-------|--------|-------|
+    | 0     | x     | m    |   | 0     | v      | m/s   |
+    | 1     | y     | m    |   | 1     | psidot | rad/s |
+    | 2     | yaw   | rad  |   |       |        |       |
+    | 3     | psi   | rad  |   |       |        |       |
+
+    ``yawdot = v tan(psi) / l``, ``psidot`` integrates (the reference's only form; its mode is
+    named ``VehicleSpeedSteeringRate`` here). Saturation: module docstring.
+    """
+
+    state_names = ("x", "y", "yaw", "psi")
+    params_type = AckermannParams
+    params: AckermannParams
+    input_modes = {"VehicleSpeedSteeringRate": ("v", "psidot")}
+    default_input_mode = "VehicleSpeedSteeringRate"
+
+    def _bounds(self):
+        p = self.params
+        vlo, vhi = p.speed_range
+        return (vlo, -p.max_steering_rate), (vhi, p.max_steering_rate)
