@@ -118,8 +118,13 @@ class WheelCore:
         elif mode == "velocity":
             self.action_dim = spec.twist_dim
             self.twist_max = np.array(spec.twist_max)
-            from wheelgym.control import TwistController
-
+            try:
+                from wheelgym.control import TwistController
+            except ImportError as exc:  # the control package has not landed
+                raise ValueError(
+                    "action_mode='velocity' needs wheelgym.control.TwistController, which is "
+                    f"not available ({exc}); valid modes now: ['torque']"
+                ) from exc
             self.controller = TwistController(self.model)
         else:
             self.action_dim = spec.n_motor

@@ -8,15 +8,15 @@ from wheelgym.envs.robots._spec import RANDOMIZE_GROUPS, RobotSpec
 
 __all__ = ["RobotSpec", "RANDOMIZE_GROUPS", "ROBOT_MODULES", "get_spec", "available_robots"]
 
-#: Robot name -> module defining ``SPEC`` (ids are ``wheelgym/<name>-v0``).
+#: Robot name -> module defining ``SPEC`` (or ``module:NAME``); ids are ``wheelgym/<name>-v0``.
 ROBOT_MODULES = {
     "ThreeWheel": "wheelgym.envs.robots.three_wheel",
     "SkidSteer": "wheelgym.envs.robots.skid_steer",
     "CasterAGV": "wheelgym.envs.robots.caster_agv",
-    "DiffDrive": "wheelgym.envs.robots.kinematic_diffdrive",
-    "Unicycle": "wheelgym.envs.robots.kinematic_unicycle",
-    "Bicycle": "wheelgym.envs.robots.kinematic_bicycle",
-    "Ackermann": "wheelgym.envs.robots.kinematic_ackermann",
+    "DiffDrive": "wheelgym.envs.robots.kinematic:DIFFDRIVE",
+    "Unicycle": "wheelgym.envs.robots.kinematic:UNICYCLE",
+    "Bicycle": "wheelgym.envs.robots.kinematic:BICYCLE",
+    "Ackermann": "wheelgym.envs.robots.kinematic:ACKERMANN",
 }
 
 _cache: dict[str, RobotSpec] = {}
@@ -29,13 +29,18 @@ def get_spec(name: str) -> RobotSpec:
     if name not in ROBOT_MODULES:
         raise ValueError(f"unknown robot {name!r}; valid robots: {available_robots()}")
     try:
-        mod = importlib.import_module(ROBOT_MODULES[name])
+        spec = _load(ROBOT_MODULES[name])
     except ImportError as exc:  # its model has not landed
         raise ValueError(
             f"robot {name!r} is not available ({exc}); valid robots: {available_robots()}"
         ) from exc
-    _cache[name] = mod.SPEC
-    return mod.SPEC
+    _cache[name] = spec
+    return spec
+
+
+def _load(target: str) -> RobotSpec:
+    modname, _, attr = target.partition(":")
+    return getattr(importlib.import_module(modname), attr or "SPEC")
 
 
 def available_robots() -> list[str]:
@@ -46,7 +51,7 @@ def available_robots() -> list[str]:
             out.append(name)
             continue
         try:
-            importlib.import_module(modname)
+            _load(modname)
         except ImportError:
             continue
         out.append(name)

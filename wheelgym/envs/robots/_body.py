@@ -12,9 +12,48 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from wheelgym.integrators import rk4_inplace
+__all__ = ["env_step_body", "rk4_work"]
 
-__all__ = ["env_step_body"]
+
+@njit(cache=True, inline="always")
+def _power(jrate, x, u, p, jr):  # pragma: no cover - compiled
+    jrate(x, p, jr)
+    s = 0.0
+    for j in range(u.shape[0]):
+        s += u[j] * jr[j]
+    return s
+
+
+@njit(cache=True, inline="always")
+def rk4_work(f, jrate, x, u, p, h, work, jr):  # pragma: no cover - compiled
+    """One RK4 step of ``x`` (the arithmetic of ``integrators.rk4_inplace``, so the same bits)
+    that also integrates the motor power ``u . jrate`` with the same stages: the work is RK4 of
+    the state augmented with ``E' = u . qdot`` (exact to the integrator's order)."""
+    m = x.shape[0]
+    k1 = work[0]
+    k2 = work[1]
+    k3 = work[2]
+    k4 = work[3]
+    tmp = work[4]
+    half = 0.5 * h
+    sixth = h / 6.0
+    f(x, u, p, k1)
+    e1 = _power(jrate, x, u, p, jr)
+    for j in range(m):
+        tmp[j] = x[j] + half * k1[j]
+    f(tmp, u, p, k2)
+    e2 = _power(jrate, tmp, u, p, jr)
+    for j in range(m):
+        tmp[j] = x[j] + half * k2[j]
+    f(tmp, u, p, k3)
+    e3 = _power(jrate, tmp, u, p, jr)
+    for j in range(m):
+        tmp[j] = x[j] + h * k3[j]
+    f(tmp, u, p, k4)
+    e4 = _power(jrate, tmp, u, p, jr)
+    for j in range(m):
+        x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    return sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
 
 
 @njit(cache=True, inline="always")
@@ -35,7 +74,7 @@ def env_step_body(f, jrate, feats, X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff
         P: packed parameters per row ``(N, n_p)``.
         h, n: substep (s) and substep count.
         Xo: new states (written).  U: physical inputs (written).  jv: joint rates at the end.
-        energy: cumulative motor work per row (J, accumulated by the trapezoid rule on substeps).
+        energy: cumulative motor work per row (J, RK4 of ``E' = u . qdot`` on the same stages).
         eff: mean squared normalised command, ``sum a_j^2 / m``.
         pose, twist, feat, xf: outputs of ``feats`` at the new state.
         sat, ok: clip flag; False where the new state is not finite (``Xo`` then holds ``X``).
@@ -72,19 +111,10 @@ def env_step_body(f, jrate, feats, X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff
         u = U[i]
         p = P[i]
         jr = jv[i]
-        jrate(x, p, jr)
-        pw0 = 0.0
-        for j in range(m):
-            pw0 += u[j] * jr[j]
         acc = 0.0
         for _ in range(n):
-            rk4_inplace(f, x, u, p, h, 1, work)
-            jrate(x, p, jr)
-            pw1 = 0.0
-            for j in range(m):
-                pw1 += u[j] * jr[j]
-            acc += 0.5 * h * (pw0 + pw1)
-            pw0 = pw1
+            acc += rk4_work(f, jrate, x, u, p, h, work, jr)
+        jrate(x, p, jr)
         good = np.isfinite(acc)
         for k in range(nx):
             if not np.isfinite(x[k]):

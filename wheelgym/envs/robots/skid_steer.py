@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 from numba import njit
 
+import wheelgym.models.friction as _friction
 from wheelgym.envs.robots._body import env_step_body
-from wheelgym.envs.robots._spec import RobotSpec
+from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.models.skid_steer import _C, _R, _XICR, SkidSteer, SkidSteerParams, _deriv_one
+
+guard_cache(__file__, sys.modules[SkidSteer.__module__].__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
 

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 from numba import njit
 
+import wheelgym.models.friction as _friction
 from wheelgym.envs.robots._body import env_step_body
-from wheelgym.envs.robots._spec import RobotSpec
+from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.models.three_wheel import (
     _D,
     _R,
@@ -19,6 +21,8 @@ from wheelgym.models.three_wheel import (
     _solve3,
     _trig,
 )
+
+guard_cache(__file__, sys.modules[ThreeWheel.__module__].__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
 
