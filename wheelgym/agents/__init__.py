@@ -1,0 +1,15 @@
+"""Training and evaluation of Stable-Baselines3 agents on wheelgym environments.
+
+Needs the ``train`` extra (``pip install -e ".[train]"``). Submodules:
+
+- :mod:`wheelgym.agents.config`: YAML configs (RL Zoo layout plus a ``wheelgym`` block)
+- :mod:`wheelgym.agents.train`: ``train(config)``, ``resume(run)``, run folders
+- :mod:`wheelgym.agents.evaluate`: one loop scoring agent, baseline and random on the same seeds
+- :mod:`wheelgym.agents.benchmark`: the results table over configs and seeds
+
+Nothing here is imported by ``import wheelgym``.
+"""
+
+from wheelgym.agents.config import TrainConfig, load_config, parse_config
+
+__all__ = ["TrainConfig", "load_config", "parse_config"]

@@ -1,0 +1,588 @@
+"""Training configurations: one YAML file per env id x task x action mode.
+
+The file layout is the RL Zoo's ``hyperparams/<algo>.yml`` (a block keyed by the env id, plain
+values), plus a ``wheelgym`` block that the RL Zoo ignores and that holds what its command line
+would otherwise carry (algorithm, env keyword arguments, seed, evaluation settings)::
+
+    wheelgym/ThreeWheel-v0:          # RL Zoo block: n_envs, n_timesteps, normalize, policy,
+      policy: MlpPolicy              # policy_kwargs and the algorithm's keyword arguments
+      n_envs: 8
+      n_timesteps: 200000
+      normalize: true
+      learning_rate: 0.0003          # or "lin_0.0003" (linear decay, the RL Zoo's schedule)
+      policy_kwargs:
+        net_arch: [64, 64]
+    wheelgym:
+      algo: ppo
+      env_kwargs: {task: goal, action_mode: velocity}
+      seed: 0
+      eval_freq: 20000               # environment steps between evaluations (0: none)
+      eval_episodes: 10
+      checkpoint_freq: 50000         # environment steps between checkpoints (0: none)
+
+Files are read with ``yaml.safe_load`` and nothing in them is evaluated: ``policy_kwargs`` holds
+plain values (``net_arch: [64, 64]``; ``activation_fn`` by a name from :data:`ACTIVATIONS`).
+Every unknown key and every bad value raises ``ValueError`` naming the file, the key and the
+valid choices.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+__all__ = [
+    "ALGOS",
+    "ACTIVATIONS",
+    "TrainConfig",
+    "load_config",
+    "parse_config",
+    "default_config_path",
+    "configs_dir",
+]
+
+#: Supported algorithms (Stable-Baselines3 class names in lower case).
+ALGOS: tuple[str, ...] = ("ppo", "sac", "td3", "a2c")
+
+#: Activation names accepted in ``policy_kwargs.activation_fn`` (torch.nn class names).
+ACTIVATIONS: dict[str, str] = {
+    "tanh": "Tanh",
+    "relu": "ReLU",
+    "elu": "ELU",
+    "leaky_relu": "LeakyReLU",
+    "gelu": "GELU",
+    "silu": "SiLU",
+}
+
+WHEELGYM_BLOCK = "wheelgym"
+VEC_ENVS: tuple[str, ...] = ("dummy", "subproc", "native")
+DEVICES: tuple[str, ...] = ("cpu", "cuda", "auto")
+
+_ON_POLICY = ("ppo", "a2c")
+
+
+# --------------------------------------------------------------------------------------------
+# value checkers: each returns the cleaned value or raises ValueError(message without context)
+# --------------------------------------------------------------------------------------------
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _int(lo: int | None = None, allow: tuple[int, ...] = ()):
+    def check(v: Any) -> int:
+        if isinstance(v, float) and math.isfinite(v) and v.is_integer():
+            v = int(v)  # YAML writes 2.0e5 as a float
+        if not _is_int(v):
+            raise ValueError(f"must be an integer, got {v!r}")
+        if v in allow:
+            return v
+        if lo is not None and v < lo:
+            extra = f" (or one of {list(allow)})" if allow else ""
+            raise ValueError(f"must be >= {lo}{extra}, got {v!r}")
+        return v
+
+    return check
+
+
+def _float(lo: float | None = None, hi: float | None = None, lo_open: bool = False):
+    def check(v: Any) -> float:
+        if not _is_num(v):
+            raise ValueError(f"must be a finite number, got {v!r}")
+        v = float(v)
+        if lo is not None and (v <= lo if lo_open else v < lo):
+            raise ValueError(f"must be {'>' if lo_open else '>='} {lo}, got {v!r}")
+        if hi is not None and v > hi:
+            raise ValueError(f"must be <= {hi}, got {v!r}")
+        return v
+
+    return check
+
+
+def _bool(v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ValueError(f"must be true or false, got {v!r}")
+    return v
+
+
+def _choice(*choices: str):
+    def check(v: Any) -> str:
+        if v not in choices:
+            raise ValueError(f"must be one of {list(choices)}, got {v!r}")
+        return v
+
+    return check
+
+
+def _schedule(lo_open: bool = True):
+    """A positive float, or the RL Zoo's ``"lin_<float>"`` linear schedule (parsed, not eval'd)."""
+    num = _float(0.0, lo_open=lo_open)
+
+    def check(v: Any) -> float | str:
+        if isinstance(v, str):
+            head, _, tail = v.partition("_")
+            if head != "lin" or not tail:
+                raise ValueError(f"must be a number or 'lin_<number>', got {v!r}")
+            try:
+                num(float(tail))
+            except ValueError as e:
+                raise ValueError(f"must be a number or 'lin_<number>', got {v!r} ({e})") from None
+            return v
+        return num(v)
+
+    return check
+
+
+def _optional(check):
+    def wrapped(v: Any):
+        return None if v is None else check(v)
+
+    return wrapped
+
+
+def _ent_coef(v: Any) -> float | str:
+    if isinstance(v, str):
+        if v == "auto" or (v.startswith("auto_") and _is_float_str(v[5:])):
+            return v
+        raise ValueError(f"must be a number >= 0, 'auto' or 'auto_<number>', got {v!r}")
+    return _float(0.0)(v)
+
+
+def _is_float_str(s: str) -> bool:
+    try:
+        return math.isfinite(float(s)) and float(s) > 0
+    except ValueError:
+        return False
+
+
+def _target_entropy(v: Any) -> float | str:
+    return v if v == "auto" else _float()(v)
+
+
+def _train_freq(v: Any) -> int | list:
+    if isinstance(v, list):
+        if len(v) != 2 or not _is_int(v[0]) or v[0] < 1 or v[1] not in ("step", "episode"):
+            raise ValueError(f"must be an integer >= 1 or [n, 'step'|'episode'], got {v!r}")
+        return v
+    return _int(1)(v)
+
+
+def _net_arch(v: Any) -> list | dict:
+    def layers(x: Any) -> list[int]:
+        if not isinstance(x, list) or not all(_is_int(n) and n >= 1 for n in x):
+            raise ValueError(f"net_arch must be a list of positive integers, got {x!r}")
+        return list(x)
+
+    if isinstance(v, dict):
+        bad = sorted(set(v) - {"pi", "vf", "qf"})
+        if bad:
+            raise ValueError(f"net_arch keys {bad} unknown; valid keys: ['pi', 'vf', 'qf']")
+        return {k: layers(x) for k, x in v.items()}
+    return layers(v)
+
+
+_POLICY_KWARGS: dict[str, Any] = {
+    "net_arch": _net_arch,
+    "activation_fn": _choice(*ACTIVATIONS),
+    "log_std_init": _float(),
+    "ortho_init": _bool,
+    "squash_output": _bool,
+    "full_std": _bool,
+    "use_expln": _bool,
+    "n_critics": _int(1),
+    "share_features_extractor": _bool,
+}
+
+
+def _policy_kwargs(v: Any) -> dict:
+    if not isinstance(v, dict):
+        raise ValueError(
+            f"must be a mapping of plain values (e.g. {{net_arch: [64, 64]}}), got {v!r}"
+        )
+    out = {}
+    for k, x in v.items():
+        if k not in _POLICY_KWARGS:
+            raise ValueError(f"unknown key {k!r}; valid keys: {sorted(_POLICY_KWARGS)}")
+        try:
+            out[k] = _POLICY_KWARGS[k](x)
+        except ValueError as e:
+            raise ValueError(f"{k} {e}") from None
+    return out
+
+
+_NORMALIZE_KWARGS: dict[str, Any] = {
+    "norm_obs": _bool,
+    "norm_reward": _bool,
+    "clip_obs": _float(0.0, lo_open=True),
+    "clip_reward": _float(0.0, lo_open=True),
+    "epsilon": _float(0.0, lo_open=True),
+    "gamma": _float(0.0, 1.0, lo_open=True),
+}
+
+
+def _normalize(v: Any) -> bool | dict:
+    if isinstance(v, bool):
+        return v
+    if not isinstance(v, dict):
+        raise ValueError(f"must be true, false or a mapping of VecNormalize options, got {v!r}")
+    out = {}
+    for k, x in v.items():
+        if k not in _NORMALIZE_KWARGS:
+            raise ValueError(f"unknown key {k!r}; valid keys: {sorted(_NORMALIZE_KWARGS)}")
+        try:
+            out[k] = _NORMALIZE_KWARGS[k](x)
+        except ValueError as e:
+            raise ValueError(f"{k} {e}") from None
+    return out
+
+
+# Keys of the RL Zoo block that are not algorithm keyword arguments.
+_ZOO_KEYS: dict[str, Any] = {
+    "policy": _choice("MlpPolicy"),
+    "n_envs": _int(1),
+    "n_timesteps": _int(1),
+    "normalize": _normalize,
+    "policy_kwargs": _policy_kwargs,
+    "noise_type": _choice("normal", "ornstein-uhlenbeck"),
+    "noise_std": _float(0.0),
+}
+
+_COMMON: dict[str, Any] = {
+    "learning_rate": _schedule(),
+    "gamma": _float(0.0, 1.0, lo_open=True),
+    "use_sde": _bool,
+    "sde_sample_freq": _int(-1),
+    "stats_window_size": _int(1),
+}
+
+_ALGO_KEYS: dict[str, dict[str, Any]] = {
+    "ppo": {
+        **_COMMON,
+        "n_steps": _int(2),
+        "batch_size": _int(2),
+        "n_epochs": _int(1),
+        "gae_lambda": _float(0.0, 1.0),
+        "clip_range": _schedule(),
+        "clip_range_vf": _optional(_schedule()),
+        "normalize_advantage": _bool,
+        "ent_coef": _float(0.0),
+        "vf_coef": _float(0.0),
+        "max_grad_norm": _float(0.0, lo_open=True),
+        "target_kl": _optional(_float(0.0, lo_open=True)),
+    },
+    "a2c": {
+        **_COMMON,
+        "n_steps": _int(1),
+        "gae_lambda": _float(0.0, 1.0),
+        "ent_coef": _float(0.0),
+        "vf_coef": _float(0.0),
+        "max_grad_norm": _float(0.0, lo_open=True),
+        "rms_prop_eps": _float(0.0, lo_open=True),
+        "use_rms_prop": _bool,
+        "normalize_advantage": _bool,
+    },
+    "sac": {
+        **_COMMON,
+        "buffer_size": _int(1),
+        "learning_starts": _int(0),
+        "batch_size": _int(1),
+        "tau": _float(0.0, 1.0, lo_open=True),
+        "train_freq": _train_freq,
+        "gradient_steps": _int(1, allow=(-1,)),
+        "ent_coef": _ent_coef,
+        "target_update_interval": _int(1),
+        "target_entropy": _target_entropy,
+        "use_sde_at_warmup": _bool,
+    },
+    "td3": {
+        **_COMMON,
+        "buffer_size": _int(1),
+        "learning_starts": _int(0),
+        "batch_size": _int(1),
+        "tau": _float(0.0, 1.0, lo_open=True),
+        "train_freq": _train_freq,
+        "gradient_steps": _int(1, allow=(-1,)),
+        "policy_delay": _int(1),
+        "target_policy_noise": _float(0.0),
+        "target_noise_clip": _float(0.0),
+    },
+}
+for _k in ("use_sde", "sde_sample_freq"):
+    _ALGO_KEYS["td3"].pop(_k)
+
+_WHEELGYM_KEYS: dict[str, Any] = {
+    "algo": _choice(*ALGOS),
+    "env_kwargs": None,  # checked separately (a mapping; the environment validates values)
+    "seed": _int(0),
+    "eval_freq": _int(0),
+    "eval_episodes": _int(1),
+    "checkpoint_freq": _int(0),
+    "vec_env": _choice(*VEC_ENVS),
+    "device": _choice(*DEVICES),
+    "torch_threads": _int(1),
+}
+
+_WHEELGYM_DEFAULTS: dict[str, Any] = {
+    "env_kwargs": {},
+    "seed": 0,
+    "eval_freq": 0,
+    "eval_episodes": 10,
+    "checkpoint_freq": 0,
+    "vec_env": "dummy",
+    "device": "cpu",
+    "torch_threads": 1,
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """A validated training configuration.
+
+    ============== ============================================================================
+    field          meaning
+    ============== ============================================================================
+    env_id         registered Gymnasium id, e.g. ``"wheelgym/ThreeWheel-v0"``
+    algo           one of :data:`ALGOS`
+    env_kwargs     keyword arguments of ``gym.make`` (task, action_mode, ...)
+    hyperparams    algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
+                   values as in the file)
+    n_envs         parallel environments in training
+    n_timesteps    total environment steps of training
+    normalize      ``None`` (no ``VecNormalize``) or its keyword arguments
+    noise          ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
+    seed           seed of the algorithm and of the training environments
+    eval_freq      environment steps between evaluations during training (0: none)
+    eval_episodes  episodes per evaluation
+    checkpoint_freq environment steps between checkpoints (0: none)
+    vec_env        ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
+    device         torch device
+    torch_threads  ``torch.set_num_threads`` value (1 is fastest for small MLPs)
+    source         the file it came from (for messages), or ``"<dict>"``
+    ============== ============================================================================
+    """
+
+    env_id: str
+    algo: str
+    env_kwargs: dict
+    hyperparams: dict
+    n_envs: int = 1
+    n_timesteps: int = 100_000
+    normalize: dict | None = None
+    noise: tuple[str, float] | None = None
+    seed: int = 0
+    eval_freq: int = 0
+    eval_episodes: int = 10
+    checkpoint_freq: int = 0
+    vec_env: str = "dummy"
+    device: str = "cpu"
+    torch_threads: int = 1
+    source: str = "<dict>"
+
+    @property
+    def task(self) -> str | None:
+        return self.env_kwargs.get("task")
+
+    @property
+    def action_mode(self) -> str | None:
+        return self.env_kwargs.get("action_mode")
+
+    @property
+    def name(self) -> str:
+        """Short name ``<Robot>-<task>-<action_mode>-<algo>`` used for run folders."""
+        robot = self.env_id.split("/")[-1].rsplit("-v", 1)[0]
+        parts = [robot, self.task, self.action_mode, self.algo]
+        return "-".join(str(p) for p in parts if p)
+
+    def replace(self, **changes: Any) -> TrainConfig:
+        """A copy with fields changed; the result is validated again."""
+        data = self.to_dict()
+        block = data[self.env_id]
+        wg = data[WHEELGYM_BLOCK]
+        for key, value in changes.items():
+            if key == "n_timesteps" or key == "n_envs":
+                block[key] = value
+            elif key in _WHEELGYM_KEYS:
+                wg[key] = value
+            else:
+                raise ValueError(
+                    f"cannot replace {key!r}; valid fields: "
+                    f"{sorted(['n_timesteps', 'n_envs', *_WHEELGYM_KEYS])}"
+                )
+        return parse_config(data, source=self.source)
+
+    def to_dict(self) -> dict:
+        """The file form (RL Zoo block + ``wheelgym`` block); ``parse_config`` reads it back."""
+        block: dict[str, Any] = {}
+        block.update(copy.deepcopy(self.hyperparams))
+        block["n_envs"] = self.n_envs
+        block["n_timesteps"] = self.n_timesteps
+        if self.normalize is not None:
+            block["normalize"] = copy.deepcopy(self.normalize) or True
+        if self.noise is not None:
+            block["noise_type"], block["noise_std"] = self.noise
+        wg = {
+            "algo": self.algo,
+            "env_kwargs": copy.deepcopy(self.env_kwargs),
+            "seed": self.seed,
+            "eval_freq": self.eval_freq,
+            "eval_episodes": self.eval_episodes,
+            "checkpoint_freq": self.checkpoint_freq,
+            "vec_env": self.vec_env,
+            "device": self.device,
+            "torch_threads": self.torch_threads,
+        }
+        return {self.env_id: block, WHEELGYM_BLOCK: wg}
+
+    def dump(self, path: str | Path) -> None:
+        """Write the file form as YAML."""
+        Path(path).write_text(yaml.safe_dump(self.to_dict(), sort_keys=False))
+
+
+def _check_block(block: Mapping, table: Mapping[str, Any], where: str) -> dict:
+    out: dict[str, Any] = {}
+    for key, value in block.items():
+        if key not in table:
+            raise ValueError(f"{where}: unknown key {key!r}; valid keys: {sorted(table)}")
+        check = table[key]
+        if check is None:
+            out[key] = value
+            continue
+        try:
+            out[key] = check(value)
+        except ValueError as e:
+            raise ValueError(f"{where}: {key} {e}") from None
+    return out
+
+
+def _plain(value: Any, where: str) -> None:
+    """Reject anything but YAML's plain scalars, lists and string-keyed mappings."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{where} must be finite, got {value!r}")
+        return
+    if isinstance(value, list):
+        for i, x in enumerate(value):
+            _plain(x, f"{where}[{i}]")
+        return
+    if isinstance(value, dict):
+        for k, x in value.items():
+            if not isinstance(k, str):
+                raise ValueError(f"{where}: keys must be strings, got {k!r}")
+            _plain(x, f"{where}.{k}")
+        return
+    raise ValueError(f"{where} must be a plain value, got {type(value).__name__}")
+
+
+def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
+    """Validate the file form (a mapping) and return a :class:`TrainConfig`.
+
+    Raises ``ValueError`` naming ``source``, the block and the key for an unknown key, a
+    missing required key or a bad value.
+    """
+    if not isinstance(data, Mapping):
+        raise ValueError(f"{source}: a config must be a mapping, got {type(data).__name__}")
+    _plain(dict(data), source)
+    if WHEELGYM_BLOCK not in data:
+        raise ValueError(f"{source}: missing the {WHEELGYM_BLOCK!r} block (with 'algo')")
+    env_ids = [k for k in data if k != WHEELGYM_BLOCK]
+    if len(env_ids) != 1:
+        raise ValueError(
+            f"{source}: expected exactly one env-id block besides {WHEELGYM_BLOCK!r} "
+            f"(e.g. 'wheelgym/ThreeWheel-v0'), got {env_ids}"
+        )
+    env_id = env_ids[0]
+    block = data[env_id]
+    wg = data[WHEELGYM_BLOCK]
+    if not isinstance(block, Mapping):
+        raise ValueError(f"{source}: block {env_id!r} must be a mapping")
+    if not isinstance(wg, Mapping):
+        raise ValueError(f"{source}: block {WHEELGYM_BLOCK!r} must be a mapping")
+
+    wg = _check_block(wg, _WHEELGYM_KEYS, f"{source}: {WHEELGYM_BLOCK}")
+    if "algo" not in wg:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: missing key 'algo'; choose from {ALGOS}")
+    algo = wg["algo"]
+    env_kwargs = wg.get("env_kwargs", {})
+    if env_kwargs is None:
+        env_kwargs = {}
+    if not isinstance(env_kwargs, Mapping):
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: env_kwargs must be a mapping")
+    wg = {**_WHEELGYM_DEFAULTS, **wg, "env_kwargs": dict(env_kwargs)}
+
+    table = {**_ZOO_KEYS, **_ALGO_KEYS[algo]}
+    block = _check_block(block, table, f"{source}: {env_id} ({algo})")
+    if "n_timesteps" not in block:
+        raise ValueError(f"{source}: {env_id}: missing key 'n_timesteps'")
+    if ("noise_type" in block) != ("noise_std" in block):
+        raise ValueError(f"{source}: {env_id}: noise_type and noise_std go together")
+    if "noise_type" in block and algo in _ON_POLICY:
+        raise ValueError(f"{source}: {env_id}: noise_type is for sac/td3, not {algo}")
+
+    normalize = block.pop("normalize", False)
+    noise = None
+    if "noise_type" in block:
+        noise = (block.pop("noise_type"), block.pop("noise_std"))
+    hyper = dict(block)
+    n_envs = hyper.pop("n_envs", 1)
+    n_timesteps = hyper.pop("n_timesteps")
+    hyper.setdefault("policy", "MlpPolicy")
+    return TrainConfig(
+        env_id=env_id,
+        algo=algo,
+        env_kwargs=wg["env_kwargs"],
+        hyperparams=hyper,
+        n_envs=n_envs,
+        n_timesteps=n_timesteps,
+        normalize=(dict(normalize) if isinstance(normalize, dict) else ({} if normalize else None)),
+        noise=noise,
+        seed=wg["seed"],
+        eval_freq=wg["eval_freq"],
+        eval_episodes=wg["eval_episodes"],
+        checkpoint_freq=wg["checkpoint_freq"],
+        vec_env=wg["vec_env"],
+        device=wg["device"],
+        torch_threads=wg["torch_threads"],
+        source=source,
+    )
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read a YAML config with ``yaml.safe_load`` and validate it (see :func:`parse_config`)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"config file {str(path)!r} not found")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        raise ValueError(f"{path}: not valid YAML: {e}") from None
+    return parse_config(data, source=str(path))
+
+
+def configs_dir() -> Path:
+    """The repository's ``configs/`` folder (source checkout or editable install)."""
+    candidates = [Path.cwd() / "configs", Path(__file__).resolve().parents[2] / "configs"]
+    for c in candidates:
+        if c.is_dir():
+            return c
+    raise ValueError(
+        f"no configs/ folder found (looked in {[str(c) for c in candidates]}); "
+        "pass a config file path instead"
+    )
+
+
+def default_config_path() -> Path:
+    """The main job's config: the three-wheel robot on the goal task."""
+    return configs_dir() / "ThreeWheel-goal-velocity.yml"

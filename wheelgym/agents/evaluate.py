@@ -1,0 +1,520 @@
+"""Score a trained agent, the analytic baseline and a random policy with one loop, same seeds.
+
+Every policy drives the same environment through :func:`run_episode`, reset with the same
+seeds, so the rows of the table differ only by the policy. Per episode:
+
+========================= ======= =========================================================
+metric                    unit    definition
+========================= ======= =========================================================
+success                   %       ``info["is_success"]`` at the episode's last step
+return                    -       sum of rewards
+RMS tracking error        m       ``sqrt(mean(e^2))`` of ``info["tracking_error"]`` over steps
+energy                    J       ``info["energy"]`` (cumulative motor work) at the last step
+peak torque               N·m     ``max |info["motor_torque"]|`` over steps and motors
+mean internal force       N       mean of ``|info["internal_force"]|`` (robots that have it)
+saturation                % time  share of steps with any ``info["saturated"]`` motor
+========================= ======= =========================================================
+
+The table gives mean ± standard deviation over episodes; a metric that an environment does
+not report reads ``n/a``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+__all__ = [
+    "Episode",
+    "run_episode",
+    "evaluate_policy_episodes",
+    "summarize",
+    "METRICS",
+    "format_markdown",
+    "write_csv",
+    "evaluate_run",
+    "EvaluationResult",
+]
+
+#: Per-episode metrics in table order: (attribute, column header, scale for display).
+METRICS: tuple[tuple[str, str, float], ...] = (
+    ("success", "success [%]", 100.0),
+    ("ret", "return", 1.0),
+    ("rms_tracking_error", "RMS tracking error [m]", 1.0),
+    ("energy", "energy [J]", 1.0),
+    ("peak_torque", "peak torque [N·m]", 1.0),
+    ("mean_internal_force", "mean internal force [N]", 1.0),
+    ("saturation", "saturation [% time]", 100.0),
+)
+
+#: How many episodes per policy keep full traces for the plots.
+TRACE_EPISODES = 4
+
+
+@dataclass
+class Episode:
+    """One episode's scores (and, when recorded, its traces)."""
+
+    seed: int
+    ret: float = 0.0
+    length: int = 0
+    success: bool | None = None
+    rms_tracking_error: float | None = None
+    energy: float | None = None
+    peak_torque: float | None = None
+    mean_internal_force: float | None = None
+    saturation: float | None = None
+    numerical_failure: bool = False
+    dt: float = 1.0
+    poses: np.ndarray | None = None  # (T + 1, 3): x, y, yaw
+    torques: np.ndarray | None = None  # (T, n_motors)
+    goal: np.ndarray | None = None  # goal pose (x, y[, yaw])
+    reference: np.ndarray | None = None  # (T, 2+) reference positions along the episode
+    frames: list = field(default_factory=list)
+
+
+def _norm(x: Any) -> float:
+    a = np.asarray(x, dtype=np.float64)
+    return float(np.sqrt(np.sum(a * a)))
+
+
+def _pos_error(x: Any) -> float:
+    """Tracking error as a distance [m]: a scalar as it is, a vector by its (x, y) part."""
+    a = np.asarray(x, dtype=np.float64).ravel()
+    return float(abs(a[0])) if a.size == 1 else float(np.hypot(a[0], a[1]))
+
+
+def _reset_policy(policy: Any, seed: int) -> None:
+    reset = getattr(policy, "reset", None)
+    if reset is None:
+        return
+    try:
+        reset(seed=seed)
+    except TypeError:
+        reset()
+
+
+def _goal_of(env: gym.Env, info: dict) -> np.ndarray | None:
+    for key in ("goal", "goal_pose"):
+        if key in info:
+            return np.asarray(info[key], dtype=np.float64).ravel()
+    base = env.unwrapped
+    for key in ("goal", "goal_pose"):
+        value = getattr(base, key, None)
+        if value is not None:
+            try:
+                return np.asarray(value, dtype=np.float64).ravel()
+            except (TypeError, ValueError):
+                return None
+    return None
+
+
+def _reference_of(info: dict) -> np.ndarray | None:
+    for key in ("reference_pose", "reference"):
+        if key in info:
+            try:
+                return np.asarray(info[key], dtype=np.float64).ravel()
+            except (TypeError, ValueError):
+                return None
+    return None
+
+
+def run_episode(
+    env: gym.Env,
+    policy: Any,
+    seed: int,
+    *,
+    record: bool = True,
+    deterministic: bool = True,
+    render: bool = False,
+) -> Episode:
+    """Run one episode of ``policy`` on ``env`` reset with ``seed``; return its scores.
+
+    ``policy`` has SB3's ``predict(obs, state, episode_start, deterministic)``. ``record``
+    keeps poses, torques, goal and reference for plots; ``render`` keeps ``env.render()``
+    frames (the env must have ``render_mode="rgb_array"``).
+    """
+    obs, info = env.reset(seed=seed)
+    _reset_policy(policy, seed)
+    ep = Episode(seed=seed, dt=float(getattr(env.unwrapped, "dt", 1.0) or 1.0))
+    poses, torques, refs = [], [], []
+    if record:
+        ep.goal = _goal_of(env, info)
+        if "pose" in info:
+            poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
+    if render:
+        ep.frames.append(env.render())
+    err2 = 0.0
+    n_err = 0
+    peak = None
+    f_sum = 0.0
+    n_force = 0
+    n_sat = 0
+    has_sat = False
+    state = None
+    start = np.ones((1,), dtype=bool)
+    while True:
+        action, state = policy.predict(obs, state=state, episode_start=start,
+                                       deterministic=deterministic)
+        start = np.zeros((1,), dtype=bool)
+        obs, reward, terminated, truncated, info = env.step(action)
+        ep.ret += float(reward)
+        ep.length += 1
+        if "tracking_error" in info:
+            e = _pos_error(info["tracking_error"])
+            err2 += e * e
+            n_err += 1
+        if "motor_torque" in info:
+            tau = np.asarray(info["motor_torque"], dtype=np.float64).ravel()
+            m = float(np.max(np.abs(tau))) if tau.size else 0.0
+            peak = m if peak is None else max(peak, m)
+            if record:
+                torques.append(tau)
+        if "internal_force" in info and info["internal_force"] is not None:
+            f_sum += _norm(info["internal_force"])
+            n_force += 1
+        if "saturated" in info:
+            has_sat = True
+            n_sat += bool(np.any(info["saturated"]))
+        if "energy" in info:
+            ep.energy = float(info["energy"])
+        if record:
+            if "pose" in info:
+                poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
+            ref = _reference_of(info)
+            if ref is not None:
+                refs.append(ref)
+            if ep.goal is None:
+                ep.goal = _goal_of(env, info)
+        if render:
+            ep.frames.append(env.render())
+        if info.get("numerical_failure", False):
+            ep.numerical_failure = True
+        if terminated or truncated:
+            break
+    if "is_success" in info:
+        ep.success = bool(info["is_success"])
+    ep.rms_tracking_error = math.sqrt(err2 / n_err) if n_err else None
+    ep.peak_torque = peak
+    ep.mean_internal_force = f_sum / n_force if n_force else None
+    ep.saturation = n_sat / ep.length if has_sat and ep.length else None
+    if record:
+        ep.poses = np.array(poses) if poses else None
+        ep.torques = np.array(torques) if torques else None
+        if refs and len({r.size for r in refs}) == 1:
+            ep.reference = np.array(refs)
+    return ep
+
+
+def evaluate_policy_episodes(
+    env: gym.Env,
+    policy: Any,
+    seeds: Sequence[int],
+    *,
+    record: bool = True,
+    deterministic: bool = True,
+) -> list[Episode]:
+    """:func:`run_episode` for each seed; traces kept for the first :data:`TRACE_EPISODES`."""
+    return [
+        run_episode(env, policy, int(s), record=record and i < TRACE_EPISODES,
+                    deterministic=deterministic)
+        for i, s in enumerate(seeds)
+    ]
+
+
+def summarize(episodes: Sequence[Episode]) -> dict[str, tuple[float, float] | None]:
+    """Mean and standard deviation over episodes of each metric in :data:`METRICS`."""
+    out: dict[str, tuple[float, float] | None] = {}
+    for attr, _, scale in METRICS:
+        vals = [getattr(e, attr) for e in episodes if getattr(e, attr) is not None]
+        if not vals:
+            out[attr] = None
+            continue
+        a = np.asarray(vals, dtype=np.float64) * scale
+        out[attr] = (float(a.mean()), float(a.std()))
+    out["length"] = (
+        float(np.mean([e.length for e in episodes])),
+        float(np.std([e.length for e in episodes])),
+    )
+    return out
+
+
+def _fmt(v: float) -> str:
+    if v == 0:
+        return "0"
+    mag = abs(v)
+    if mag >= 1000:
+        return f"{v:.0f}"
+    if mag >= 10:
+        return f"{v:.1f}"
+    if mag >= 0.01:
+        return f"{v:.3g}"
+    return f"{v:.2e}"
+
+
+def format_markdown(rows: dict[str, dict[str, tuple[float, float] | None]],
+                    n_episodes: int | None = None) -> str:
+    """A Markdown table: one row per policy, ``mean ± std`` cells, ``n/a`` where not reported."""
+    head = ["policy", *(h for _, h, _ in METRICS)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, stats in rows.items():
+        cells = [name]
+        for attr, _, _ in METRICS:
+            s = stats.get(attr)
+            if s is None:
+                cells.append("n/a")
+            elif attr == "success":
+                cells.append(f"{s[0]:.0f}")
+            else:
+                cells.append(f"{_fmt(s[0])} ± {_fmt(s[1])}")
+        lines.append("| " + " | ".join(cells) + " |")
+    if n_episodes is not None:
+        lines.append("")
+        lines.append(f"mean ± std over {n_episodes} episodes per policy, same seeds for all.")
+    return "\n".join(lines)
+
+
+def write_csv(path: str | Path, rows: dict[str, dict[str, tuple[float, float] | None]]) -> None:
+    """The table as CSV: ``policy, <metric>_mean, <metric>_std, ...`` (empty: not reported)."""
+    names = [a for a, _, _ in METRICS] + ["length"]
+    with Path(path).open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["policy", *(f"{n}_{s}" for n in names for s in ("mean", "std"))])
+        for policy, stats in rows.items():
+            cells: list[str] = [policy]
+            for n in names:
+                s = stats.get(n)
+                cells += ["", ""] if s is None else [f"{s[0]:.6g}", f"{s[1]:.6g}"]
+            w.writerow(cells)
+
+
+# --------------------------------------------------------------------------------------------
+# plots (matplotlib imported here only, through the object API: no global backend change)
+# --------------------------------------------------------------------------------------------
+
+
+def _figure(w: float, h: float):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), dpi=100)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def plot_trajectories(results: dict[str, list[Episode]], path: str | Path) -> Path:
+    """x-y paths of the recorded episodes of each policy, against the goal or reference."""
+    n = len(results)
+    fig = _figure(4.2 * n, 4.2)
+    axes = fig.subplots(1, n, squeeze=False)[0]
+    colors = ["C0", "C1", "C2", "C3", "C4", "C5"]
+    for ax, (name, episodes) in zip(axes, results.items(), strict=True):
+        shown = [e for e in episodes if e.poses is not None][:TRACE_EPISODES]
+        for k, e in enumerate(shown):
+            c = colors[k % len(colors)]
+            ax.plot(e.poses[:, 0], e.poses[:, 1], color=c, lw=1.5,
+                    label=f"seed {e.seed}" + (" ✓" if e.success else ""))
+            ax.plot(e.poses[0, 0], e.poses[0, 1], "o", color=c, ms=5)
+            if e.reference is not None and e.reference.shape[1] >= 2:
+                ax.plot(e.reference[:, 0], e.reference[:, 1], "--", color=c, lw=1, alpha=0.7)
+            if e.goal is not None and e.goal.size >= 2:
+                ax.plot(e.goal[0], e.goal[1], "*", color=c, ms=13, mec="k")
+                if e.goal.size >= 3:
+                    ax.annotate("", xy=(e.goal[0] + 0.25 * math.cos(e.goal[2]),
+                                        e.goal[1] + 0.25 * math.sin(e.goal[2])),
+                                xytext=(e.goal[0], e.goal[1]),
+                                arrowprops={"arrowstyle": "->", "color": c})
+        if not shown:
+            ax.text(0.5, 0.5, "no pose in info", ha="center", va="center",
+                    transform=ax.transAxes)
+        else:
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.legend(fontsize=7, loc="best")
+        ax.set_title(name)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.grid(alpha=0.3)
+    fig.suptitle("trajectories (o start, * goal, -- reference)")
+    fig.tight_layout()
+    fig.savefig(path)
+    return Path(path)
+
+
+def plot_torques(results: dict[str, list[Episode]], path: str | Path) -> Path:
+    """Applied motor torques over the first recorded episode of each policy."""
+    n = len(results)
+    fig = _figure(8.0, 2.4 * n)
+    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    for ax, (name, episodes) in zip(axes, results.items(), strict=True):
+        e = next((e for e in episodes if e.torques is not None), None)
+        if e is None:
+            ax.text(0.5, 0.5, "no motor_torque in info", ha="center", va="center",
+                    transform=ax.transAxes)
+        else:
+            t = np.arange(1, len(e.torques) + 1) * e.dt
+            for j in range(e.torques.shape[1]):
+                ax.plot(t, e.torques[:, j], lw=1, label=f"motor {j + 1}")
+            ax.legend(fontsize=7, ncol=min(e.torques.shape[1], 6), loc="upper right")
+            ax.set_title(f"{name} (seed {e.seed})", fontsize=9)
+        ax.set_ylabel("torque [N·m]")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path)
+    return Path(path)
+
+
+def save_video(frames: list, path: str | Path, fps: float) -> Path:
+    """Write RGB frames as MP4 (imageio-ffmpeg) or, failing that, as an animated GIF."""
+    path = Path(path)
+    frames = [np.asarray(f, dtype=np.uint8) for f in frames if f is not None]
+    if not frames:
+        raise ValueError("no frames to write (is render_mode 'rgb_array' supported?)")
+    if path.suffix == ".mp4":
+        try:
+            import imageio.v2 as imageio
+
+            with imageio.get_writer(path, fps=fps, macro_block_size=1) as w:
+                for f in frames:
+                    w.append_data(f)
+            return path
+        except Exception:  # no ffmpeg: fall back to GIF
+            path = path.with_suffix(".gif")
+    from PIL import Image
+
+    images = [Image.fromarray(f) for f in frames]
+    images[0].save(path, save_all=True, append_images=images[1:],
+                   duration=max(int(1000 / fps), 20), loop=0)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# evaluate a run folder
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class EvaluationResult:
+    """Paths and numbers of one evaluation."""
+
+    out_dir: Path
+    table: str
+    rows: dict[str, dict[str, tuple[float, float] | None]]
+    episodes: dict[str, list[Episode]]
+    files: dict[str, Path]
+    notes: list[str]
+
+
+def evaluate_run(
+    run: str | Path,
+    *,
+    episodes: int = 50,
+    seed: int = 100_000,
+    video: bool = False,
+    out_dir: str | Path | None = None,
+    model: str = "final",
+    include_random: bool = True,
+    include_baseline: bool = True,
+) -> EvaluationResult:
+    """Evaluate a run folder: agent vs baseline vs random on seeds ``seed .. seed+episodes-1``.
+
+    Writes ``results.md``, ``results.csv``, ``episodes.csv``, ``trajectories.png``,
+    ``torques.png`` (and ``video_<policy>.mp4`` with ``video``) into ``out_dir`` (default
+    ``<run>/eval``, made new if it exists). ``model``: ``"final"`` (model.zip) or ``"best"``.
+    """
+    from wheelgym.agents.config import load_config
+    from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
+    from wheelgym.agents.train import make_single_env
+
+    if not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    if model not in ("final", "best"):
+        raise ValueError(f"model must be 'final' or 'best', got {model!r}")
+    run = Path(run)
+    if not (run / "config.yml").is_file():
+        raise ValueError(f"{run}: not a run folder (no config.yml)")
+    config = load_config(run / "config.yml")
+    stem = "model" if model == "final" else "best_model"
+    stats = "vecnormalize.pkl" if model == "final" else "best_vecnormalize.pkl"
+    if not (run / f"{stem}.zip").is_file():
+        raise ValueError(f"{run}: no {stem}.zip")
+    agent = load_agent(run / f"{stem}.zip", config.algo, run / stats, device=config.device)
+
+    out = _fresh_dir(run / "eval" if out_dir is None else Path(out_dir))
+    seeds = [seed + i for i in range(episodes)]
+    notes: list[str] = []
+    results: dict[str, list[Episode]] = {}
+
+    env = make_single_env(config)
+    try:
+        policies: dict[str, Any] = {agent.name: agent}
+        if include_baseline:
+            try:
+                policies["baseline"] = make_baseline(env)
+            except ValueError as e:
+                notes.append(f"baseline skipped: {e}")
+        if include_random:
+            policies["random"] = RandomPolicy(env.action_space)
+        for name, policy in policies.items():
+            results[name] = evaluate_policy_episodes(env, policy, seeds)
+    finally:
+        env.close()
+
+    rows = {name: summarize(eps) for name, eps in results.items()}
+    table = format_markdown(rows, episodes)
+    files = {
+        "results.md": out / "results.md",
+        "results.csv": out / "results.csv",
+        "episodes.csv": out / "episodes.csv",
+    }
+    header = (f"# {config.env_id} {config.env_kwargs}, {config.algo.upper()} run "
+              f"{run.name}\n\n")
+    files["results.md"].write_text(header + table + "\n" + "".join(f"\n{n}" for n in notes))
+    write_csv(files["results.csv"], rows)
+    _write_episodes_csv(files["episodes.csv"], results)
+    files["trajectories.png"] = plot_trajectories(results, out / "trajectories.png")
+    files["torques.png"] = plot_torques(results, out / "torques.png")
+    if video:
+        for name in results:
+            vid_env = make_single_env(config, render_mode="rgb_array")
+            try:
+                policy = (make_baseline(vid_env) if name == "baseline" else
+                          RandomPolicy(vid_env.action_space) if name == "random" else agent)
+                ep = run_episode(vid_env, policy, seeds[0], record=False, render=True)
+                fps = float(vid_env.metadata.get("render_fps", 0) or 1.0 / max(ep.dt, 1e-3))
+                key = "video_" + name.split(" ")[0]
+                files[key] = save_video(ep.frames, out / f"{key}.mp4", fps)
+            finally:
+                vid_env.close()
+    return EvaluationResult(out, table, rows, results, files, notes)
+
+
+def _fresh_dir(path: Path) -> Path:
+    if not path.exists() or (path.is_dir() and not any(path.iterdir())):
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    for i in range(2, 1000):
+        p = path.with_name(f"{path.name}-{i}")
+        if not p.exists():
+            p.mkdir(parents=True)
+            return p
+    raise RuntimeError(f"could not create an output folder next to {path}")
+
+
+def _write_episodes_csv(path: Path, results: dict[str, list[Episode]]) -> None:
+    attrs = ["seed", "length", *(a for a, _, _ in METRICS), "numerical_failure"]
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["policy", *attrs])
+        for name, eps in results.items():
+            for e in eps:
+                vals = [getattr(e, a) for a in attrs]
+                w.writerow([name, *("" if v is None else (int(v) if isinstance(v, bool) else v)
+                                    for v in vals)])

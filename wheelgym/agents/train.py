@@ -1,0 +1,537 @@
+"""Train a Stable-Baselines3 agent on a wheelgym environment from a YAML config.
+
+A run folder (``runs/<Robot>-<task>-<mode>-<algo>-s<seed>-<UTC time>``, never reused: a clash
+gets a ``-2``, ``-3`` suffix) holds:
+
+====================== ======================================================================
+file                   content
+====================== ======================================================================
+config.yml             the config as used (overrides applied), loadable by ``load_config``
+model.zip              the final (or interrupted) model
+vecnormalize.pkl       ``VecNormalize`` statistics (when ``normalize`` is on)
+eval.csv               evaluation history: steps, wall time, mean/std return, success rate
+best_model.zip         the model of the best evaluation (and ``best_vecnormalize.pkl``)
+checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
+tb/                    TensorBoard logs
+run.json               status (running, finished, interrupted), steps, wall time, versions
+====================== ======================================================================
+
+Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
+Ctrl-C stops at once, still saving). ``resume`` continues a run in its own folder from its last
+saved model or checkpoint.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import platform
+import re
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from wheelgym.agents.config import ACTIVATIONS, TrainConfig, load_config
+
+__all__ = [
+    "algo_class",
+    "make_train_env",
+    "build_model",
+    "train",
+    "resume",
+    "new_run_dir",
+    "TrainResult",
+]
+
+RUNS_DIR = Path("runs")
+
+
+def algo_class(algo: str) -> type:
+    """The SB3 class for an algorithm name (``ppo``, ``sac``, ``td3``, ``a2c``)."""
+    import stable_baselines3 as sb3
+
+    table = {"ppo": sb3.PPO, "sac": sb3.SAC, "td3": sb3.TD3, "a2c": sb3.A2C}
+    if algo not in table:
+        raise ValueError(f"algo must be one of {sorted(table)}, got {algo!r}")
+    return table[algo]
+
+
+def _ensure_registered(env_id: str) -> None:
+    import wheelgym  # noqa: F401  (registers the ids where the package does so on import)
+
+    register = getattr(wheelgym, "register_envs", None)
+    if env_id not in gym.registry and register is not None:
+        register()
+    if env_id not in gym.registry:
+        known = sorted(k for k in gym.registry if k.startswith("wheelgym/"))
+        raise ValueError(f"env id {env_id!r} is not registered; wheelgym ids: {known}")
+
+
+def make_single_env(config: TrainConfig, render_mode: str | None = None) -> gym.Env:
+    """``gym.make(config.env_id, **config.env_kwargs)``; a bad keyword becomes ``ValueError``."""
+    _ensure_registered(config.env_id)
+    kwargs = dict(config.env_kwargs)
+    if render_mode is not None:
+        kwargs["render_mode"] = render_mode
+    try:
+        return gym.make(config.env_id, **kwargs)
+    except TypeError as e:
+        raise ValueError(f"{config.source}: env_kwargs {config.env_kwargs}: {e}") from e
+
+
+def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | None = None):
+    """The training ``VecEnv``: ``n_envs`` copies with episode statistics (incl. success).
+
+    ``vec_env``: ``dummy`` (SB3 ``DummyVecEnv``), ``subproc`` (``SubprocVecEnv``) or ``native``
+    (wheelgym's batched vector env through its SB3 adapter, where available).
+    """
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    n = config.n_envs if n_envs is None else n_envs
+    seed = config.seed if seed is None else seed
+    _ensure_registered(config.env_id)
+    if config.vec_env == "native":
+        try:
+            from wheelgym.vector import make_sb3_vec_env
+        except ImportError as e:
+            raise ValueError(
+                f"{config.source}: vec_env 'native' needs wheelgym.vector.make_sb3_vec_env: {e}"
+            ) from None
+        venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed, **config.env_kwargs)
+    else:
+        env_id, kwargs = config.env_id, dict(config.env_kwargs)
+
+        def factory(rank: int) -> Callable[[], gym.Env]:
+            def _init() -> gym.Env:
+                import wheelgym  # noqa: F401  (subprocess workers register the ids)
+
+                env = gym.make(env_id, **kwargs)
+                env.action_space.seed(seed + rank)
+                return env
+
+            return _init
+
+        cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
+        try:
+            venv = cls([factory(i) for i in range(n)])
+        except TypeError as e:
+            raise ValueError(f"{config.source}: env_kwargs {config.env_kwargs}: {e}") from e
+        venv.seed(seed)
+    # SB3 logs rollout/success_rate itself from info["is_success"] at episode ends.
+    return VecMonitor(venv)
+
+
+def _wrap_normalize(venv, config: TrainConfig):
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if config.normalize is None:
+        return venv
+    kwargs = dict(config.normalize)
+    kwargs.setdefault("gamma", config.hyperparams.get("gamma", 0.99))  # as the RL Zoo does
+    return VecNormalize(venv, **kwargs)
+
+
+def _linear(initial: float) -> Callable[[float], float]:
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    return schedule
+
+
+def algo_kwargs(config: TrainConfig, n_actions: int | None = None) -> dict[str, Any]:
+    """The config's plain hyperparameters turned into SB3 keyword arguments."""
+    import torch
+
+    kw = {k: v for k, v in config.hyperparams.items()}
+    for key in ("learning_rate", "clip_range", "clip_range_vf"):
+        v = kw.get(key)
+        if isinstance(v, str):  # "lin_<x>", validated by the loader
+            kw[key] = _linear(float(v.split("_", 1)[1]))
+    if isinstance(kw.get("train_freq"), list):
+        kw["train_freq"] = tuple(kw["train_freq"])
+    pk = dict(kw.get("policy_kwargs", {}))
+    if "activation_fn" in pk:
+        pk["activation_fn"] = getattr(torch.nn, ACTIVATIONS[pk["activation_fn"]])
+    if pk:
+        kw["policy_kwargs"] = pk
+    if config.noise is not None:
+        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+        noise_type, std = config.noise
+        cls = NormalActionNoise if noise_type == "normal" else OrnsteinUhlenbeckActionNoise
+        assert n_actions is not None
+        kw["action_noise"] = cls(mean=np.zeros(n_actions), sigma=std * np.ones(n_actions))
+    return kw
+
+
+def build_model(config: TrainConfig, venv, tensorboard_log: str | None = None, verbose: int = 0):
+    """Construct the SB3 algorithm on ``venv``; SB3's own objections become ``ValueError``."""
+    cls = algo_class(config.algo)
+    n_actions = int(np.prod(venv.action_space.shape)) if venv.action_space.shape else None
+    kwargs = algo_kwargs(config, n_actions)
+    policy = kwargs.pop("policy")
+    try:
+        return cls(
+            policy,
+            venv,
+            seed=config.seed,
+            device=config.device,
+            tensorboard_log=tensorboard_log,
+            verbose=verbose,
+            **kwargs,
+        )
+    except (AssertionError, TypeError, ValueError) as e:
+        raise ValueError(f"{config.source}: cannot build {config.algo}: {e}") from e
+
+
+# --------------------------------------------------------------------------------------------
+# run folders
+# --------------------------------------------------------------------------------------------
+
+
+def new_run_dir(config: TrainConfig, root: str | Path | None = None) -> Path:
+    """Create a fresh run folder; never returns an existing one."""
+    root = Path(RUNS_DIR if root is None else root)
+    root.mkdir(parents=True, exist_ok=True)
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+    base = f"{config.name}-s{config.seed}-{stamp}"
+    for i in range(1, 1000):
+        path = root / (base if i == 1 else f"{base}-{i}")
+        try:
+            path.mkdir()
+        except FileExistsError:
+            continue
+        return path
+    raise RuntimeError(f"could not create a new run folder under {root}")
+
+
+def _use_given_dir(path: Path) -> Path:
+    """A user-chosen ``--run-dir``: created new, never one that exists and holds files."""
+    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+        raise ValueError(f"run dir {str(path)!r} exists and is not empty; runs never overwrite")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _write_json(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=2))
+    os.replace(tmp, path)
+
+
+def _versions() -> dict[str, str]:
+    import stable_baselines3 as sb3
+    import torch
+
+    import wheelgym
+
+    return {
+        "wheelgym": wheelgym.__version__,
+        "stable_baselines3": sb3.__version__,
+        "torch": torch.__version__,
+        "gymnasium": gym.__version__,
+        "python": platform.python_version(),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# callbacks
+# --------------------------------------------------------------------------------------------
+
+
+class _StopOnSignal:
+    """SIGINT handler: first Ctrl-C asks training to stop at the next step, the second raises."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._previous: Any = None
+
+    def __enter__(self) -> _StopOnSignal:
+        try:
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        except ValueError:  # not the main thread: leave signals alone
+            self._previous = None
+        return self
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSignal,
+                    progress: bool):
+    from stable_baselines3.common.callbacks import (
+        BaseCallback,
+        CallbackList,
+        CheckpointCallback,
+        ProgressBarCallback,
+    )
+
+    from wheelgym.agents.evaluate import evaluate_policy_episodes
+    from wheelgym.agents.policies import AgentPolicy
+
+    n_envs = model.get_env().num_envs
+
+    class StopCallback(BaseCallback):
+        def _on_step(self) -> bool:
+            return not stop.requested
+
+    class EvalHistory(BaseCallback):
+        """Every ``eval_freq`` steps: deterministic episodes on fixed seeds -> eval.csv."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.every = max(config.eval_freq // n_envs, 1)
+            self.path = run_dir / "eval.csv"
+            self.best = -math.inf
+            self.env: gym.Env | None = None
+            self.t0 = time.perf_counter()
+
+        def _on_training_start(self) -> None:
+            self.t0 = time.perf_counter()
+            if not self.path.exists():
+                with self.path.open("w", newline="") as f:
+                    csv.writer(f).writerow(
+                        ["timesteps", "wall_s", "mean_return", "std_return", "success_rate",
+                         "mean_length"]
+                    )
+            else:  # resumed: keep the best so far
+                with self.path.open() as f:
+                    rows = list(csv.DictReader(f))
+                if rows:
+                    self.best = max(float(r["mean_return"]) for r in rows)
+
+        def _on_step(self) -> bool:
+            if self.n_calls % self.every:
+                return True
+            if self.env is None:
+                self.env = make_single_env(config)
+            norm = self.model.get_vec_normalize_env()
+            policy = AgentPolicy(self.model, norm)
+            seeds = [10_000 + i for i in range(config.eval_episodes)]
+            episodes = evaluate_policy_episodes(self.env, policy, seeds, record=False)
+            rets = np.array([e.ret for e in episodes])
+            succ = [e.success for e in episodes if e.success is not None]
+            rate = float(np.mean(succ)) if succ else float("nan")
+            mean_len = float(np.mean([e.length for e in episodes]))
+            with self.path.open("a", newline="") as f:
+                csv.writer(f).writerow(
+                    [self.num_timesteps, f"{time.perf_counter() - self.t0:.2f}",
+                     f"{rets.mean():.6g}", f"{rets.std():.6g}",
+                     "" if math.isnan(rate) else f"{rate:.4f}", f"{mean_len:.1f}"]
+                )
+            self.logger.record("eval/mean_reward", float(rets.mean()))
+            if succ:
+                self.logger.record("eval/success_rate", rate)
+            if rets.mean() > self.best:
+                self.best = float(rets.mean())
+                self.model.save(run_dir / "best_model.zip")
+                if norm is not None:
+                    norm.save(str(run_dir / "best_vecnormalize.pkl"))
+            return True
+
+        def _on_training_end(self) -> None:
+            if self.env is not None:
+                self.env.close()
+
+    callbacks: list = [StopCallback()]
+    if progress:
+        callbacks.append(ProgressBarCallback())
+    if config.checkpoint_freq > 0:
+        callbacks.append(
+            CheckpointCallback(
+                save_freq=max(config.checkpoint_freq // n_envs, 1),
+                save_path=str(run_dir / "checkpoints"),
+                name_prefix="ckpt",
+                save_vecnormalize=True,
+            )
+        )
+    if config.eval_freq > 0:
+        callbacks.append(EvalHistory())
+    return CallbackList(callbacks)
+
+
+# --------------------------------------------------------------------------------------------
+# train / resume
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TrainResult:
+    """What a training call leaves: its folder, status, steps and wall time."""
+
+    run_dir: Path
+    status: str
+    timesteps: int
+    wall_s: float
+
+
+def _save(model, run_dir: Path) -> None:
+    model.save(run_dir / "model.zip")
+    norm = model.get_vec_normalize_env()
+    if norm is not None:
+        norm.save(str(run_dir / "vecnormalize.pkl"))
+
+
+def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool,
+           info: dict, reset_num_timesteps: bool) -> TrainResult:
+    t0 = time.perf_counter()
+    remaining = max(total - model.num_timesteps, 0)
+    status = "finished"
+    with _StopOnSignal() as stop:
+        info.update(status="running", target_timesteps=total)
+        _write_json(run_dir / "run.json", info)
+        callbacks = _make_callbacks(config, run_dir, model, stop, progress)
+        try:
+            if remaining > 0:
+                model.learn(
+                    total_timesteps=remaining,
+                    callback=callbacks,
+                    reset_num_timesteps=reset_num_timesteps,
+                    tb_log_name="tb",
+                )
+            if stop.requested:
+                status = "interrupted"
+        except KeyboardInterrupt:
+            status = "interrupted"
+        finally:
+            _save(model, run_dir)
+            wall = time.perf_counter() - t0
+            info.update(
+                status=status,
+                timesteps=int(model.num_timesteps),
+                wall_s=round(info.get("wall_s", 0.0) + wall, 2),
+                finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            )
+            _write_json(run_dir / "run.json", info)
+            model.get_env().close()
+    return TrainResult(run_dir, status, int(model.num_timesteps), info["wall_s"])
+
+
+def train(
+    config: TrainConfig | str | Path,
+    *,
+    seed: int | None = None,
+    total_timesteps: int | None = None,
+    run_dir: str | Path | None = None,
+    runs_root: str | Path | None = None,
+    progress: bool = True,
+    verbose: int = 0,
+) -> TrainResult:
+    """Train from a config (or its path) into a new run folder.
+
+    ``seed`` and ``total_timesteps`` override the config (the saved ``config.yml`` holds the
+    values used). ``run_dir`` names the folder (it must not exist or be empty); otherwise one is
+    made under ``runs_root`` (default ``runs/``).
+    """
+    import torch
+
+    if not isinstance(config, TrainConfig):
+        config = load_config(config)
+    changes: dict[str, Any] = {}
+    if seed is not None:
+        changes["seed"] = seed
+    if total_timesteps is not None:
+        changes["n_timesteps"] = total_timesteps
+    if changes:
+        config = config.replace(**changes)
+    torch.set_num_threads(config.torch_threads)
+
+    venv = _wrap_normalize(make_train_env(config), config)
+    out = _use_given_dir(Path(run_dir)) if run_dir is not None else new_run_dir(config, runs_root)
+    try:
+        model = build_model(config, venv, tensorboard_log=str(out / "tb"), verbose=verbose)
+    except Exception:
+        venv.close()
+        if not any(out.iterdir()):
+            out.rmdir()
+        raise
+    config.dump(out / "config.yml")
+    info = {
+        "config_source": config.source,
+        "env_id": config.env_id,
+        "env_kwargs": config.env_kwargs,
+        "algo": config.algo,
+        "seed": config.seed,
+        "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "versions": _versions(),
+        "wall_s": 0.0,
+    }
+    return _learn(config, model, out, config.n_timesteps, progress, info, True)
+
+
+_CKPT = re.compile(r"ckpt_(\d+)_steps\.zip$")
+
+
+def latest_model(run_dir: Path) -> tuple[Path, Path | None]:
+    """The newest saved model of a run (``model.zip`` or the latest checkpoint) and its stats."""
+    candidates: list[tuple[float, Path, Path | None]] = []
+    final = run_dir / "model.zip"
+    if final.is_file():
+        candidates.append((final.stat().st_mtime, final, run_dir / "vecnormalize.pkl"))
+    ckpt_dir = run_dir / "checkpoints"
+    if ckpt_dir.is_dir():
+        for p in ckpt_dir.iterdir():
+            m = _CKPT.search(p.name)
+            if m:
+                stats = ckpt_dir / f"ckpt_vecnormalize_{m.group(1)}_steps.pkl"
+                candidates.append((p.stat().st_mtime, p, stats))
+    if not candidates:
+        raise ValueError(f"{run_dir}: no model.zip or checkpoint to resume from")
+    _, model, stats = max(candidates, key=lambda c: c[0])
+    return model, (stats if stats is not None and stats.is_file() else None)
+
+
+def resume(
+    run: str | Path,
+    *,
+    total_timesteps: int | None = None,
+    progress: bool = True,
+    verbose: int = 0,
+) -> TrainResult:
+    """Continue a run in its own folder up to ``total_timesteps`` (default: the config's).
+
+    Loads the newest of ``model.zip`` and the checkpoints, with its ``VecNormalize`` statistics;
+    evaluation history and TensorBoard logs continue.
+    """
+    import torch
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    run_dir = Path(run)
+    if not (run_dir / "config.yml").is_file():
+        raise ValueError(f"{run_dir}: not a run folder (no config.yml)")
+    config = load_config(run_dir / "config.yml")
+    if total_timesteps is not None:
+        config = config.replace(n_timesteps=total_timesteps)
+        config.dump(run_dir / "config.yml")
+    torch.set_num_threads(config.torch_threads)
+    model_path, stats_path = latest_model(run_dir)
+    # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
+    venv = make_train_env(config, seed=config.seed + 7919)
+    if config.normalize is not None:
+        if stats_path is None:
+            raise ValueError(f"{run_dir}: normalize is on but no VecNormalize statistics found")
+        venv = VecNormalize.load(str(stats_path), venv)
+        venv.training = True
+    model = algo_class(config.algo).load(
+        str(model_path), env=venv, device=config.device, tensorboard_log=str(run_dir / "tb"),
+        verbose=verbose,
+    )
+    info_path = run_dir / "run.json"
+    info = json.loads(info_path.read_text()) if info_path.is_file() else {}
+    info.setdefault("resumed_from", []).append(str(model_path.name))
+    return _learn(config, model, run_dir, config.n_timesteps, progress, info, False)

@@ -1,0 +1,290 @@
+"""The ``wheelgym`` command.
+
+======================================= ==================================================
+command                                 what it does
+======================================= ==================================================
+``wheelgym main``                       train the default config (ThreeWheel, goal task),
+                                        evaluate it, print agent vs baseline vs random
+``wheelgym train CONFIG``               train from a YAML config into a new run folder
+``wheelgym train --resume RUN``         continue a run from its last model or checkpoint
+``wheelgym evaluate RUN``               table (Markdown + CSV), plots, optional video
+``wheelgym benchmark [--quick]``        the results table over configs x 3 seeds
+``wheelgym demo ID``                    watch (or save a GIF/MP4 of) the baseline driving
+``wheelgym validate``                   the physics validation report
+======================================= ==================================================
+
+Training commands need the ``train`` extra. Errors in arguments or configs print one line and
+exit with status 2 (set ``WHEELGYM_DEBUG=1`` for the traceback); an interrupted training run
+(Ctrl-C) saves and exits with status 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(float(text)) if "e" in text.lower() else int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="wheelgym",
+        description="Wheeled-robot Gymnasium environments: train, evaluate, demo, validate.",
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    m = sub.add_parser("main", help="train the default agent, evaluate it, print the table")
+    m.add_argument("--config", type=Path, default=None,
+                   help="config file (default: configs/ThreeWheel-goal-velocity.yml)")
+    m.add_argument("--total-timesteps", type=_positive_int, default=None)
+    m.add_argument("--seed", type=_nonneg_int, default=None)
+    m.add_argument("--episodes", type=_positive_int, default=50,
+                   help="evaluation episodes per policy (default 50)")
+    m.add_argument("--runs-root", type=Path, default=Path("runs"))
+    m.add_argument("--no-progress", action="store_true")
+
+    t = sub.add_parser("train", help="train an SB3 agent from a YAML config")
+    t.add_argument("config", nargs="?", type=Path, help="YAML config (see configs/)")
+    t.add_argument("--seed", type=_nonneg_int, default=None, help="override the config's seed")
+    t.add_argument("--total-timesteps", type=_positive_int, default=None,
+                   help="override n_timesteps (with --resume: the new total)")
+    t.add_argument("--run-dir", type=Path, default=None,
+                   help="run folder to create (default runs/<name>-s<seed>-<time>)")
+    t.add_argument("--runs-root", type=Path, default=Path("runs"))
+    t.add_argument("--resume", type=Path, default=None, metavar="RUN",
+                   help="continue this run folder instead of starting one")
+    t.add_argument("--no-progress", action="store_true")
+    t.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2))
+
+    e = sub.add_parser("evaluate", help="score a run against the baseline and a random policy")
+    e.add_argument("run", type=Path, help="run folder (holds config.yml and model.zip)")
+    e.add_argument("--episodes", type=_positive_int, default=50)
+    e.add_argument("--seed", type=_nonneg_int, default=100_000,
+                   help="first episode seed (episodes use seed, seed+1, ...)")
+    e.add_argument("--video", action="store_true", help="also write one video per policy")
+    e.add_argument("--best", action="store_true", help="use best_model.zip, not model.zip")
+    e.add_argument("--out", type=Path, default=None, help="output folder (default RUN/eval)")
+
+    b = sub.add_parser("benchmark", help="results table: configs x seeds vs baseline/random")
+    b.add_argument("configs", nargs="*", type=Path,
+                   help="config files (default: every file in configs/)")
+    b.add_argument("--quick", action="store_true",
+                   help="1 seed, a tenth of each budget, 5 episodes")
+    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds per config (3)")
+    b.add_argument("--episodes", type=_positive_int, default=None,
+                   help="evaluation episodes per seed (20)")
+    b.add_argument("--budget", type=_positive_int, default=None,
+                   help="training steps per run (default: each config's n_timesteps)")
+    b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
+    b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
+
+    d = sub.add_parser("demo", help="render the analytic baseline driving an environment")
+    d.add_argument("env_id", metavar="ID", help="e.g. ThreeWheel-v0 or wheelgym/ThreeWheel-v0")
+    d.add_argument("--task", default=None, help="goal, track or navigate")
+    d.add_argument("--action-mode", default=None, help="torque or velocity")
+    d.add_argument("--seed", type=_nonneg_int, default=0)
+    d.add_argument("--episodes", type=_positive_int, default=1)
+    d.add_argument("--out", type=Path, default=None,
+                   help="save instead of opening a window: .gif, .mp4, or a folder of PNGs "
+                        "(the default without a display: demo-<ID>.gif)")
+
+    v = sub.add_parser("validate", help="run the physics validation report")
+    v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def _print(*args) -> None:
+    print(*args, flush=True)
+
+
+def _cmd_train(a: argparse.Namespace) -> int:
+    from wheelgym.agents.train import resume, train
+
+    if a.resume is not None:
+        if a.config is not None or a.seed is not None or a.run_dir is not None:
+            raise ValueError("--resume RUN takes no CONFIG, --seed or --run-dir "
+                             "(the run's own config.yml is used)")
+        result = resume(a.resume, total_timesteps=a.total_timesteps,
+                        progress=not a.no_progress, verbose=a.verbose)
+    else:
+        if a.config is None:
+            raise ValueError("give a CONFIG file (see configs/) or --resume RUN")
+        result = train(a.config, seed=a.seed, total_timesteps=a.total_timesteps,
+                       run_dir=a.run_dir, runs_root=a.runs_root, progress=not a.no_progress,
+                       verbose=a.verbose)
+    _print(f"{result.status}: {result.timesteps} steps in {result.wall_s:.1f} s -> "
+           f"{result.run_dir}")
+    return 130 if result.status == "interrupted" else 0
+
+
+def _cmd_evaluate(a: argparse.Namespace) -> int:
+    from wheelgym.agents.evaluate import evaluate_run
+
+    t0 = time.perf_counter()
+    res = evaluate_run(a.run, episodes=a.episodes, seed=a.seed, video=a.video,
+                       out_dir=a.out, model="best" if a.best else "final")
+    _print(res.table)
+    for note in res.notes:
+        _print(note)
+    _print(f"\nwrote {', '.join(sorted(p.name for p in res.files.values()))} to {res.out_dir} "
+           f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _cmd_main(a: argparse.Namespace) -> int:
+    from wheelgym.agents.config import default_config_path, load_config
+    from wheelgym.agents.evaluate import evaluate_run
+    from wheelgym.agents.train import train
+
+    path = a.config if a.config is not None else default_config_path()
+    config = load_config(path)
+    steps = a.total_timesteps or config.n_timesteps
+    _print(f"wheelgym main: training {config.algo.upper()} on {config.env_id} "
+           f"{config.env_kwargs} for {steps} steps ({path})")
+    t0 = time.perf_counter()
+    result = train(config, seed=a.seed, total_timesteps=a.total_timesteps,
+                   runs_root=a.runs_root, progress=not a.no_progress)
+    t_train = time.perf_counter() - t0
+    if result.status == "interrupted":
+        _print(f"interrupted at {result.timesteps} steps; model saved in {result.run_dir}")
+        return 130
+    _print(f"trained {result.timesteps} steps in {t_train:.0f} s -> {result.run_dir}")
+    t1 = time.perf_counter()
+    res = evaluate_run(result.run_dir, episodes=a.episodes)
+    t_eval = time.perf_counter() - t1
+    _print("")
+    _print(res.table)
+    for note in res.notes:
+        _print(note)
+    _print(f"\nevaluation {t_eval:.0f} s; total {time.perf_counter() - t0:.0f} s. "
+           f"Table, CSV and plots in {res.out_dir}")
+    return 0
+
+
+def _cmd_benchmark(a: argparse.Namespace) -> int:
+    from wheelgym.agents.benchmark import run_benchmark
+
+    table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds, episodes=a.episodes,
+                          budget=a.budget, runs_root=a.runs_root, log=_print)
+    _print(table)
+    if a.out is not None:
+        a.out.write_text(table + "\n")
+    return 0
+
+
+def _display_available() -> bool:
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _cmd_demo(a: argparse.Namespace) -> int:
+    import gymnasium as gym
+
+    import wheelgym  # noqa: F401  (registers the ids)
+    from wheelgym.agents.evaluate import run_episode, save_video
+    from wheelgym.agents.policies import make_baseline
+
+    env_id = a.env_id if "/" in a.env_id else f"wheelgym/{a.env_id}"
+    if env_id not in gym.registry:
+        known = sorted(k for k in gym.registry if k.startswith("wheelgym/"))
+        raise ValueError(f"unknown id {a.env_id!r}; valid ids: {known}")
+    kwargs = {}
+    if a.task is not None:
+        kwargs["task"] = a.task
+    if a.action_mode is not None:
+        kwargs["action_mode"] = a.action_mode
+    human = a.out is None and _display_available()
+    env = gym.make(env_id, render_mode="human" if human else "rgb_array", **kwargs)
+    try:
+        policy = make_baseline(env)
+        frames: list = []
+        for k in range(a.episodes):
+            ep = run_episode(env, policy, a.seed + k, record=False, render=not human)
+            frames += ep.frames
+            _print(f"episode {k}: seed {a.seed + k}, {ep.length} steps, return {ep.ret:.2f}, "
+                   f"success {ep.success}")
+        if human:
+            return 0
+        out = a.out or Path(f"demo-{env_id.split('/')[-1]}.gif")
+        fps = float(env.metadata.get("render_fps", 0) or 20)
+    finally:
+        env.close()
+    if out.suffix in (".gif", ".mp4"):
+        written = save_video(frames, out, fps)
+        _print(f"wrote {len(frames)} frames to {written}")
+    else:
+        from PIL import Image
+
+        out.mkdir(parents=True, exist_ok=True)
+        for i, f in enumerate(frames):
+            Image.fromarray(f).save(out / f"frame_{i:05d}.png")
+        _print(f"wrote {len(frames)} PNG frames to {out}")
+    return 0
+
+
+def _cmd_validate(a: argparse.Namespace) -> int:
+    try:
+        from wheelgym.validate import main as validate_main
+    except ImportError as e:
+        raise ValueError(f"the validation report is not available: {e}") from None
+    rc = validate_main(list(a.args))
+    return int(rc or 0)
+
+
+_COMMANDS = {
+    "main": _cmd_main,
+    "train": _cmd_train,
+    "evaluate": _cmd_evaluate,
+    "benchmark": _cmd_benchmark,
+    "demo": _cmd_demo,
+    "validate": _cmd_validate,
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``wheelgym`` console script; returns the exit status."""
+    parser = _parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        if args.command != "validate":
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        args.args = [*args.args, *extra]
+    try:
+        return _COMMANDS[args.command](args)
+    except ValueError as e:
+        if os.environ.get("WHEELGYM_DEBUG"):
+            raise
+        print(f"wheelgym {args.command}: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
