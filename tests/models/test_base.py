@@ -13,9 +13,26 @@ X0 = np.array([0.1, -0.2, 0.3, 0.5, 0.2])
 U0 = np.array([1.0, 2.0, -3.0, 4.0])
 
 
-@pytest.fixture(scope="module")
-def model() -> SkidSteer:
-    return SkidSteer()
+class _NoFastPath(SkidSteer):
+    """SkidSteer without the single-state kernels: exercises the generic 1-D path."""
+
+    _k_step1 = None
+    _k_deriv1 = None
+
+
+@pytest.fixture(scope="module", params=[SkidSteer, _NoFastPath])
+def model(request) -> SkidSteer:
+    return request.param()
+
+
+def test_generic_single_state_path_same_bits():
+    fast, generic = SkidSteer(), _NoFastPath()
+    assert generic._step1 is None
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        x, u = rng.normal(0, 1, 5), rng.uniform(-30, 30, 4)
+        np.testing.assert_array_equal(generic.step(x, u, 0.05, 40), fast.step(x, u, 0.05, 40))
+        np.testing.assert_array_equal(generic.derivative(x, u), fast.derivative(x, u))
 
 
 # ---------------------------------------------------------------------------- Params

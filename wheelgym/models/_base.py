@@ -110,6 +110,7 @@ def _freeze(value: Any) -> Any:
 
 
 _ndarray = np.ndarray
+_F64 = np.dtype(np.float64)
 
 
 class Model:
@@ -303,18 +304,39 @@ class Model:
         """
         # Fast path: one float64 state (the single-env case). Everything else is checked in
         # the compiled kernel; numba's dispatch raises TypeError for other argument types.
-        if self._step1 is not None and type(x) is _ndarray and x.ndim == 1 and (
-            type(n_substeps) is int
-        ):
-            out = x.copy()
-            try:
-                status = self._step1(out, u, self._p, dt, n_substeps)
-            except TypeError:
-                pass
-            else:
-                if status == 0:
-                    return out
-                self._raise_status(status, "step", x, u, dt)
+        if type(x) is _ndarray and x.ndim == 1 and type(n_substeps) is int:
+            if self._step1 is not None:
+                out = x.copy()
+                try:
+                    status = self._step1(out, u, self._p, dt, n_substeps)
+                except TypeError:
+                    pass
+                else:
+                    if status == 0:
+                        return out
+                    self._raise_status(status, "step", x, u, dt)
+            elif (
+                type(u) is _ndarray
+                and type(dt) is float
+                and 0.0 < dt < math.inf
+                and n_substeps >= 1
+                and x.dtype is _F64
+                and u.dtype is _F64
+                and x.shape[0] == self._nx
+                and u.ndim == 1
+                and u.shape[0] == len(self.input_names)
+                and x.flags.c_contiguous
+                and u.flags.c_contiguous
+            ):
+                # A model without ``_k_step1``: its serial batch kernel on a (1, n) view.
+                out = np.empty((1, self._nx))
+                if type(self)._k_step(
+                    x.reshape(1, -1), u.reshape(1, -1), self._p, dt / n_substeps, n_substeps, out
+                ):
+                    if _itg.all_finite(out):
+                        return out[0]
+                    self._raise_status(_itg.STATUS_DIVERGED, "step", x, u, dt)
+                # non-finite input: the general path names it
         return self._step_general(x, u, dt, n_substeps)
 
     def _step_general(self, x: Any, u: Any, dt: float, n_substeps: int) -> np.ndarray:
@@ -329,7 +351,7 @@ class Model:
         if not kernel(X, U, self._p, float(dt) / n, n, out):
             bad = "x" if not np.isfinite(X).all() else "u"
             raise ValueError(f"{bad} passed to {type(self).__name__}.step is not finite")
-        if not np.isfinite(out).all():
+        if not _itg.all_finite(out):
             self._raise_status(_itg.STATUS_DIVERGED, "step", x, u, dt)
         return out.reshape(lead + (self.state_dim,))
 
