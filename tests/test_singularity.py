@@ -187,3 +187,15 @@ def test_bad_arguments(tw, agv):
     with pytest.raises(ValueError, match="finite"):
         a.det([0.0, np.nan, 0.0])
     assert issubclass(SingularConfigurationError, ValueError)
+
+
+def test_singularity_map_example(tmp_path, capsys):
+    import runpy
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "singularity_map.py"
+    main = runpy.run_path(str(script))["main"]
+    out = tmp_path / "map.png"
+    main(["--out", str(out), "--n", "21"])
+    assert out.stat().st_size > 10_000
+    assert "drive_1', 'drive_2', 'steer_3'" in capsys.readouterr().out
