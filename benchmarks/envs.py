@@ -68,7 +68,11 @@ def main() -> None:
         for task in ("goal", "track", "navigate"):
             modes = spec.action_modes if task == "goal" else spec.action_modes[:1]
             for mode in modes:
-                env = gym.make(env_id(robot), task=task, action_mode=mode)
+                try:
+                    env = gym.make(env_id(robot), task=task, action_mode=mode)
+                except ValueError as exc:  # e.g. the velocity mode's controller is missing
+                    print(f"| {env_id(robot)} | {task} | {mode} | n/a ({exc}) | | | |")
+                    continue
                 t = time_steps(env, args.steps, args.repeats)
                 target = NAVIGATE_TARGET if task == "navigate" else TARGETS.get(robot, 1.0)
                 ratio = t_ref / t

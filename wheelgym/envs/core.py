@@ -155,7 +155,6 @@ class WheelCore:
         self.xf = np.zeros(N)
         self.sat = np.zeros(N, dtype=np.bool_)
         self.ok = np.ones(N, dtype=np.bool_)
-        self.steps = np.zeros(N, dtype=np.int64)
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
@@ -176,6 +175,14 @@ class WheelCore:
         self.err = np.zeros(N)
         self.rngs: Sequence[np.random.Generator] | None = None
         self._scratch = None
+        self._track = isinstance(self.task, TrackTask)
+        self._velocity = self.action_mode == "velocity" and not self.kinematic
+        self.info_buffers = {
+            "pose": self.pose, "twist": self.twist, "motor_torque": self.U,
+            "joint_velocity": self.jv, "tracking_error": self.err, "energy": self.energy,
+            "internal_force": self.xf, "saturated": self.sat, "is_success": self.succ,
+            "ok": self.ok, "terms": self.terms,
+        }
 
     # ------------------------------------------------------------------ validation
     def _check_randomize(self, randomize) -> dict[str, tuple[float, float]]:
@@ -259,7 +266,6 @@ class WheelCore:
         for n, i in enumerate(idx):
             self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
         self.energy[idx] = 0.0
-        self.steps[idx] = 0
         # features at the start state: a zero-substep pass of the step kernel on copies
         if self._scratch is None:
             self._scratch = {k: np.empty_like(getattr(self, k)) for k in
@@ -310,21 +316,19 @@ class WheelCore:
             ``obs (N, D) float32``, ``reward (N,)``, ``terminated (N,) bool`` and a dict of
             buffers: ``pose``, ``twist``, ``motor_torque`` (``U``), ``joint_velocity``,
             ``tracking_error``, ``energy``, ``internal_force``, ``saturated``, ``is_success``,
-            ``numerical_failure``, ``terms`` (N, n_columns). All are the core's buffers.
+            ``terms`` (N, n_columns), ``ok`` (False: numerical failure). All are the core's
+            buffers (the same dict every step).
         """
         a = actions
         if a.shape != self.A.shape or a.dtype != np.float64:
             a = np.asarray(actions, dtype=np.float64)
             if a.shape != self.A.shape:
-                raise ValueError(
-                    f"action must have shape {self.A.shape[1:] if self.num == 1 else self.A.shape}"
-                    f" (or {self.A.shape}), got {np.shape(actions)}"
-                )
-        if isinstance(self.task, TrackTask):
+                raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
+        if self._track:
             self.task.advance()
-        if self.action_mode == "velocity":
+        if self._velocity:
             if not np.all(np.isfinite(a)):
-                raise ValueError("action must be finite")
+                raise ValueError("action must be finite (got NaN or inf)")
             cmd = np.clip(a, -1.0, 1.0) * self.twist_max
             tau, csat = self.controller.torques(self.X, cmd)
             A = tau / self.HI
@@ -334,18 +338,12 @@ class WheelCore:
                                     self.Xo, self.U, self.jv, self.energy, self.eff, self.pose,
                                     self.twist, self.feat, self.xf, self.sat, self.ok):
             raise ValueError("action must be finite (got NaN or inf)")
-        if self.action_mode == "velocity":
+        if self._velocity:
             self.sat |= np.asarray(csat, dtype=np.bool_).reshape(self.num) | \
                 np.any(np.abs(a) > 1.0, axis=1)
         self.X, self.Xo = self.Xo, self.X
-        self.steps += 1
         self.task.evaluate()
         if self.obs_noise > 0:
             self._noise(range(self.num))
         self.task.commit()
-        return self.obs, self.reward, self.term, {
-            "pose": self.pose, "twist": self.twist, "motor_torque": self.U,
-            "joint_velocity": self.jv, "tracking_error": self.err, "energy": self.energy,
-            "internal_force": self.xf, "saturated": self.sat, "is_success": self.succ,
-            "numerical_failure": ~self.ok, "terms": self.terms,
-        }
+        return self.obs, self.reward, self.term, self.info_buffers

@@ -142,6 +142,7 @@ class WheelEnv(gym.Env):
         self._tidx = [int(k) for k in c.task.term_index]
         self._nmotor = c.spec.n_motor
         self._A = np.zeros((1, c.action_dim))
+        self._shape = (c.action_dim,)
         self._renderer = None
         self._started = False
 
@@ -151,7 +152,7 @@ class WheelEnv(gym.Env):
         c = self.core
         obs = c.reset(None, [self.np_random], options)[0].copy()
         self._started = True
-        info = self._info(0.0)
+        info = self._info(True)
         info["params"] = dict(c.drawn[0])
         info["task"] = self._task_info()
         if self._renderer is not None:
@@ -163,35 +164,32 @@ class WheelEnv(gym.Env):
     def step(self, action):
         if not self._started:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self._A.shape[1:]:
-            raise ValueError(
-                f"action must have shape {self._A.shape[1:]}, got {np.shape(action)}"
-            )
+        a = np.asarray(action)
+        if a.shape != self._shape:
+            raise ValueError(f"action must have shape {self._shape}, got {np.shape(action)}")
         self._A[0] = a
-        c = self.core
-        obs, reward, term, _ = c.step(self._A)
-        info = self._info(None)
+        obs, reward, term, _ = self.core.step(self._A)
+        info = self._info(False)
         if self.render_mode == "human":
             self.render()
-        return obs[0].copy(), float(reward[0]), bool(term[0]), False, info
+        return obs[0].copy(), reward.item(0), term.item(0), False, info
 
-    def _info(self, reward_terms_zero: float | None) -> dict[str, Any]:
+    def _info(self, at_reset: bool) -> dict[str, Any]:
         c = self.core
-        t = c.terms[0]
         nm = self._nmotor
+        t = c.terms[0].tolist()
         return {
             "pose": c.pose[0].copy(),
             "twist": c.twist[0].copy(),
             "motor_torque": c.U[0, :nm].copy(),
             "joint_velocity": c.jv[0, :nm].copy(),
-            "tracking_error": float(c.err[0]),
-            "energy": float(c.energy[0]),
-            "internal_force": float(c.xf[0]),
-            "saturated": bool(c.sat[0]),
-            "is_success": bool(c.succ[0]),
-            "numerical_failure": not bool(c.ok[0]),
-            "reward_terms": {n: (0.0 if reward_terms_zero is not None else float(t[k]))
+            "tracking_error": c.err.item(0),
+            "energy": c.energy.item(0),
+            "internal_force": c.xf.item(0),
+            "saturated": c.sat.item(0),
+            "is_success": c.succ.item(0),
+            "numerical_failure": not c.ok.item(0),
+            "reward_terms": {n: (0.0 if at_reset else t[k])
                              for n, k in zip(self._names, self._tidx, strict=True)},
         }
 
