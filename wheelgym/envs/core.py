@@ -305,12 +305,17 @@ class WheelCore:
         k_noise(self.obs, noise, self.obs_low, self.obs_high)
 
     # ------------------------------------------------------------------ step
-    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """Advance every row one control period.
 
         Args:
             actions: ``(N, action_dim)`` in [-1, 1] (entries outside are clipped; a
                 non-finite entry raises ``ValueError``).
+            active: optional ``(N,)`` bool mask; rows outside it are integrated all the same
+                but draw no observation noise from their generators. A vector env passes the
+                rows it resets right after this step (next-step autoreset), so each row's
+                generator is consumed exactly as the single environment's.
 
         Returns:
             ``obs (N, D) float32``, ``reward (N,)``, ``terminated (N,) bool`` and a dict of
@@ -344,6 +349,6 @@ class WheelCore:
         self.X, self.Xo = self.Xo, self.X
         self.task.evaluate()
         if self.obs_noise > 0:
-            self._noise(range(self.num))
+            self._noise(range(self.num) if active is None else np.flatnonzero(active))
         self.task.commit()
         return self.obs, self.reward, self.term, self.info_buffers
