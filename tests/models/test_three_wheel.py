@@ -23,11 +23,12 @@ TIGHT = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-12}
 
 
 def torque_profile(t: float) -> np.ndarray:
-    """Smooth, varying motor torques (N·m) in motor order."""
-    drive = np.array([2.0 + 1.5 * math.sin(1.3 * t), 1.5 + 1.2 * math.cos(0.9 * t + 0.4),
-                      1.0 + 2.0 * math.sin(0.7 * t + 1.0)])
-    steer = np.array([0.4 * math.sin(2.1 * t), -0.3 * math.cos(1.7 * t + 0.3),
-                      0.5 * math.sin(1.1 * t + 2.0)])
+    """Smooth, varying motor torques (N·m) in motor order: speeds up to 2.5 m/s, the platform
+    turns at up to 5 rad/s and the steering torques spin the casters round several times."""
+    drive = np.array([0.8 + 0.6 * math.sin(1.3 * t), 0.6 + 0.5 * math.cos(0.9 * t + 0.4),
+                      0.4 + 0.8 * math.sin(0.7 * t + 1.0)])
+    steer = np.array([0.2 * math.sin(2.1 * t), -0.15 * math.cos(1.7 * t + 0.3),
+                      0.25 * math.sin(1.1 * t + 2.0)])
     return np.concatenate([drive, steer])
 
 
