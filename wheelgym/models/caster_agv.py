@@ -51,7 +51,15 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit, prange
 
-from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.integrators import (
+    DERIV1_SIG,
+    STEP1_SIG,
+    all_finite,
+    check_one,
+    check_step_args,
+    finite_status,
+    rk4_inplace,
+)
 from wheelgym.models._base import Model, Params
 from wheelgym.models.friction import sgn_s
 
@@ -311,6 +319,27 @@ def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
         _deriv_one(X[i], U[i], p, out[i])
 
 
+@njit(DERIV1_SIG, cache=True)
+def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
+    status = check_one(x, u, 9, 2)
+    if status == 0:
+        _deriv_one(x, u, p, out)
+    return status
+
+
+@njit(STEP1_SIG, cache=True)
+def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
+    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
+    status = check_one(x, u, 9, 2)
+    if status == 0:
+        status = check_step_args(dt, n)
+    if status != 0:
+        return status
+    work = np.empty((5, 9))
+    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
+    return finite_status(x)
+
+
 @njit(cache=True)
 def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
@@ -409,8 +438,8 @@ class CasterAGV(Model):
 
     Stability of the default ``sim_dt = 0.002 s``: the stiffest mode is the friction at rest,
     the largest ``|lambda|`` of ``M^-1 dQ_f/du`` at ``u = 0`` (:meth:`stiffness`); at the
-    defaults it is about 60 1/s over all swivel angles, so ``|lambda| sim_dt`` is about 0.12,
-    far inside RK4's real stability limit 2.785.
+    defaults it is about 39 1/s over all swivel angles (the rolling resistance along ``g``),
+    so ``|lambda| sim_dt`` is about 0.08, far inside RK4's real stability limit 2.785.
     """
 
     state_names = ("x", "y", "yaw", "v", "w", "sigma", "theta_L", "theta_R", "theta_c")
@@ -424,6 +453,9 @@ class CasterAGV(Model):
     _k_deriv = _k_deriv
     _k_step = _k_step
     _k_step_par = _k_step_par
+    _k_step1 = _k_step1
+    _k_deriv1 = _k_deriv1
+    friction_params = ("mu_r", "mu_p", "b_drive", "b_caster")
 
     params: CasterAGVParams
 

@@ -35,7 +35,15 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit, prange
 
-from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.integrators import (
+    DERIV1_SIG,
+    STEP1_SIG,
+    all_finite,
+    check_one,
+    check_step_args,
+    finite_status,
+    rk4_inplace,
+)
 from wheelgym.models._base import Model, Params
 
 __all__ = [
@@ -304,6 +312,28 @@ def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
         _deriv_one(X[i], U[i], p, out[i])
 
 
+@njit(DERIV1_SIG, cache=True)
+def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
+    status = check_one(x, u, 4 if int(p[_KIND]) == _K_ACK else 3, 2)
+    if status == 0:
+        _deriv_one(x, u, p, out)
+    return status
+
+
+@njit(STEP1_SIG, cache=True)
+def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
+    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
+    nx = 4 if int(p[_KIND]) == _K_ACK else 3
+    status = check_one(x, u, nx, 2)
+    if status == 0:
+        status = check_step_args(dt, n)
+    if status != 0:
+        return status
+    work = np.empty((5, nx))
+    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
+    return finite_status(x)
+
+
 @njit(cache=True)
 def _k_effective(X, U, p, out):  # pragma: no cover - compiled
     for i in range(X.shape[0]):
@@ -318,21 +348,6 @@ def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
     for i in range(X.shape[0]):
         out[i] = X[i]
         rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
-    return True
-
-
-@njit(cache=True)
-def _k_step1(x, u, p, h, n, out):  # pragma: no cover - compiled
-    """Single-state step (the fast path of :meth:`KinematicModel.step`)."""
-    for j in range(x.shape[0]):
-        if not np.isfinite(x[j]):
-            return False
-    for j in range(u.shape[0]):
-        if not np.isfinite(u[j]):
-            return False
-    work = np.empty((5, x.shape[0]))
-    out[:] = x
-    rk4_inplace(_deriv_one, out, u, p, h, n, work)
     return True
 
 
@@ -370,6 +385,8 @@ class KinematicModel(Model):
     _k_deriv = _k_deriv
     _k_step = _k_step
     _k_step_par = _k_step_par
+    _k_step1 = _k_step1
+    _k_deriv1 = _k_deriv1
 
     def __init__(
         self,
@@ -392,34 +409,9 @@ class KinematicModel(Model):
         self.input_mode = mode
         self.input_names = self.input_modes[mode]
         self._p[_MODE] = _MODE_CODES[mode]
-        self._xshape = (len(self.state_names),)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r}, input_mode={self.input_mode!r})"
-
-    def step(self, x: Any, u: Any, dt: float, n_substeps: int = 1) -> np.ndarray:
-        """Advance by ``dt`` with RK4 (see :meth:`Model.step`).
-
-        A single float64 state ``(n,)`` with input ``(2,)`` takes a fast path that skips the
-        batching layer (same compiled derivative, same bits); everything else goes through
-        :meth:`Model.step`.
-        """
-        if (
-            type(x) is np.ndarray
-            and type(u) is np.ndarray
-            and x.dtype == np.float64
-            and u.dtype == np.float64
-            and x.shape == self._xshape
-            and u.shape == (2,)
-            and type(n_substeps) is int
-            and n_substeps >= 1
-            and type(dt) is float
-            and 0.0 < dt < math.inf
-        ):
-            out = np.empty(self._xshape)
-            if _k_step1(x, u, self._p, dt / n_substeps, n_substeps, out):
-                return out
-        return super().step(x, u, dt, n_substeps)
 
     def effective_input(self, x: Any, u: Any) -> np.ndarray:
         """The saturated command ``(v, w)`` (m/s, rad/s), plus ``psidot`` for Ackermann.
@@ -441,6 +433,22 @@ class KinematicModel(Model):
         """
         lo, hi = self._bounds()
         return np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+
+    @property
+    def input_high(self) -> np.ndarray:
+        """Upper input bounds of the current mode (see :meth:`input_bounds`)."""
+        return self.input_bounds()[1]
+
+    @property
+    def input_low(self) -> np.ndarray:
+        """Lower input bounds of the current mode (see :meth:`input_bounds`)."""
+        return self.input_bounds()[0]
+
+    def validation_state(self) -> np.ndarray:
+        """A generic start state inside every limit (for :mod:`wheelgym.validate`)."""
+        x = np.zeros(self.state_dim)
+        x[:3] = (0.3, -0.2, 0.4)
+        return x
 
     def _bounds(self) -> tuple[tuple[float, float], tuple[float, float]]:
         raise NotImplementedError
