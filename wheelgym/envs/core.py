@@ -155,6 +155,7 @@ class WheelCore:
         self.xf = np.zeros(N)
         self.sat = np.zeros(N, dtype=np.bool_)
         self.ok = np.ones(N, dtype=np.bool_)
+        self.steps = np.zeros(N, dtype=np.int64)  # control steps since each row's reset
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
@@ -266,6 +267,7 @@ class WheelCore:
         for n, i in enumerate(idx):
             self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
         self.energy[idx] = 0.0
+        self.steps[idx] = 0
         # features at the start state: a zero-substep pass of the step kernel on copies
         if self._scratch is None:
             self._scratch = {k: np.empty_like(getattr(self, k)) for k in
@@ -347,6 +349,7 @@ class WheelCore:
             self.sat |= np.asarray(csat, dtype=np.bool_).reshape(self.num) | \
                 np.any(np.abs(a) > 1.0, axis=1)
         self.X, self.Xo = self.Xo, self.X
+        self.steps += 1
         self.task.evaluate()
         if self.obs_noise > 0:
             self._noise(range(self.num) if active is None else np.flatnonzero(active))
