@@ -1,5 +1,15 @@
 """Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4)."""
 
+from wheelgym.control.controllers import (
+    TrackingController,
+    TrackingGains,
+    TwistController,
+    TwistGains,
+    UnicycleTrackingGains,
+    inverse_dynamics,
+    make_controller,
+    tracked_point,
+)
 from wheelgym.control.distribution import (
     DISTRIBUTIONS,
     PAPER_INPUT_JOINTS,
@@ -16,6 +26,14 @@ from wheelgym.control.distribution import (
 )
 
 __all__ = [
+    "TrackingController",
+    "TrackingGains",
+    "TwistController",
+    "TwistGains",
+    "UnicycleTrackingGains",
+    "inverse_dynamics",
+    "make_controller",
+    "tracked_point",
     "DISTRIBUTIONS",
     "PAPER_INPUT_JOINTS",
     "distribute",

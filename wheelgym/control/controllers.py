@@ -1,0 +1,602 @@
+"""Analytic baseline controllers: inverse dynamics, computed torque, load distribution.
+
+Two controllers per robot, both stateless in :meth:`torques` (batched over leading axes):
+
+* :class:`TwistController` turns a commanded body twist into motor torques (the
+  environments' velocity action mode).
+* :class:`TrackingController` follows a reference trajectory (pose, twist, twist rate).
+
+Both compute a desired acceleration, the generalized force it needs by inverse dynamics
+(physics.md TW-6: ``Q_d = M udot_d + c - Q_f``; SS-4: ``Bbar tau_LR = Mbar etadot_d + Cbar eta +
+Rbar``), and the motor torques through a load distribution (:mod:`wheelgym.control.distribution`).
+Torques over a limit are scaled down uniformly (every motor by the same factor, so the
+generalized force keeps its direction) and reported as ``saturated``.
+
+Sampling. The controllers are designed for torques computed once per control step and held
+over it (``ctrl_dt = 0.05 s``, physics.md section 1):
+
+* twist loop ``udot_d = k_v (u_cmd - u)``: with the torque held, the twist error after one step
+  is ``(1 - k_v ctrl_dt)`` times the error before, so the default ``k_v = 1 / ctrl_dt``
+  (20 1/s) is the deadbeat gain; the loop stays stable (``|1 - k_v ctrl_dt / g| < 1``) for any
+  plant-to-model inertia ratio ``g < 2``.
+* friction is evaluated at the twist the step aims for (``u + udot_d ctrl_dt``), not at the
+  current twist: where the arctan friction is steep (near zero slip) the plant settles within
+  milliseconds to the twist at which friction balances the held torque, so that twist must be
+  the target. Where the friction is saturated both choices agree.
+* ThreeWheel pose loop (world frame, per axis) ``a_d = a_ref + k_d (v_ref - v) + k_p e``: the
+  sampled closed loop of a double integrator with zero-order hold has spectral radius 0.80 per
+  step at the defaults ``k_p = 36 1/s², k_d = 12 1/s`` (0.75-0.82 for inertia ratios 0.8-1.25).
+
+The controller's model may have parameters other than the plant's (robustness tests use a
+20% mismatch).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
+from wheelgym.models import skid_steer as _ss
+from wheelgym.models import three_wheel as _tw
+from wheelgym.models.skid_steer import SkidSteer
+from wheelgym.models.three_wheel import ThreeWheel
+
+__all__ = [
+    "TwistGains",
+    "TrackingGains",
+    "UnicycleTrackingGains",
+    "TwistController",
+    "TrackingController",
+    "make_controller",
+    "inverse_dynamics",
+    "tracked_point",
+]
+
+
+# ---------------------------------------------------------------------------- gains
+@dataclasses.dataclass(frozen=True)
+class TwistGains:
+    """Twist-loop gains.
+
+    | name    | default | unit | meaning                                                    |
+    |---------|---------|------|------------------------------------------------------------|
+    | k_v     | 20.0    | 1/s  | twist-error gain (``1/ctrl_dt``: deadbeat at 0.05 s)          |
+    | ctrl_dt | 0.05    | s    | control period the torques are held over (friction look-ahead) |
+    """
+
+    k_v: float = 20.0
+    ctrl_dt: float = 0.05
+
+    def __post_init__(self) -> None:
+        _check_gains(self)
+        if self.k_v * self.ctrl_dt >= 2.0:
+            raise ValueError(
+                f"TwistGains: k_v * ctrl_dt = {self.k_v * self.ctrl_dt:.3g} must be < 2 for a "
+                "stable sampled loop (1 is deadbeat)"
+            )
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackingGains:
+    """Computed-torque pose/twist gains for holonomic tracking (ThreeWheel), per world axis.
+
+    | name    | default | unit        | meaning                                          |
+    |---------|---------|-------------|--------------------------------------------------|
+    | k_p     | 36.0    | 1/s²        | position and heading error gain                  |
+    | k_d     | 12.0    | 1/s         | velocity and yaw-rate error gain                 |
+    | ctrl_dt | 0.05    | s           | control period (friction look-ahead)             |
+    """
+
+    k_p: float = 36.0
+    k_d: float = 12.0
+    ctrl_dt: float = 0.05
+
+    def __post_init__(self) -> None:
+        _check_gains(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class UnicycleTrackingGains:
+    """Kanayama tracking law plus the twist loop (SkidSteer, nonholonomic).
+
+    ``v_c = v_r cos e_yaw + k_x e_x``, ``w_c = w_r + v_r (k_y e_y + k_yaw sin e_yaw)``
+    (errors in the robot frame), then ``etadot_d = d/dt (v_c, w_c) + k_v ((v_c, w_c) - eta)``.
+    The lateral error obeys ``e_y'' + v_r k_yaw e_y' + v_r^2 k_y e_y = 0`` when linearised:
+    the defaults give a natural frequency ``14.1 v_r`` rad/s with damping 0.99.
+
+    Sampling: differentiating ``w_c`` feeds ``w`` back with gain ``k_v + |v_r| k_yaw`` in
+    all, which must stay well below ``2 / ctrl_dt`` (with margin for a heavier or lighter
+    plant). Where ``|v_r| k_yaw`` would exceed ``k_w_max - k_v``, ``k_yaw`` is lowered to
+    fit and ``k_y`` with its square (same damping).
+
+    | name    | default | unit  | meaning                                          |
+    |---------|---------|-------|--------------------------------------------------|
+    | k_x     | 4.0     | 1/s   | along-track error gain                           |
+    | k_y     | 200.0   | 1/m²  | cross-track error gain                           |
+    | k_yaw   | 28.0    | 1/m   | heading error gain                               |
+    | k_v     | 10.0    | 1/s   | twist-loop gain                                  |
+    | k_w_max | 24.0    | 1/s   | cap on the total yaw-rate gain ``k_v + |v_r| k_yaw`` |
+    | ctrl_dt | 0.05    | s     | control period (friction look-ahead)             |
+    """
+
+    k_x: float = 4.0
+    k_y: float = 200.0
+    k_yaw: float = 28.0
+    k_v: float = 10.0
+    k_w_max: float = 24.0
+    ctrl_dt: float = 0.05
+
+    def __post_init__(self) -> None:
+        _check_gains(self)
+        if not self.k_v < self.k_w_max < 2.0 / self.ctrl_dt:
+            raise ValueError(
+                "UnicycleTrackingGains: need k_v < k_w_max < 2 / ctrl_dt, got "
+                f"k_v={self.k_v}, k_w_max={self.k_w_max}, ctrl_dt={self.ctrl_dt}"
+            )
+
+
+def _check_gains(g: Any) -> None:
+    for f in dataclasses.fields(g):
+        v = getattr(g, f.name)
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+            raise TypeError(f"{type(g).__name__}.{f.name} must be a number, got {v!r}")
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{type(g).__name__}.{f.name} must be positive and finite, got {v!r}")
+
+
+def _make_gains(cls: type, gains: Any) -> Any:
+    if gains is None:
+        return cls()
+    if isinstance(gains, cls):
+        return gains
+    if isinstance(gains, Mapping):
+        valid = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(gains) - set(valid))
+        if unknown:
+            raise TypeError(f"unknown {cls.__name__} field(s) {unknown}; valid names: {valid}")
+        return cls(**gains)
+    raise TypeError(
+        f"gains must be a {cls.__name__}, a mapping or None, got {type(gains).__name__}"
+    )
+
+
+# ---------------------------------------------------------------------------- compiled pieces
+@njit(cache=True, inline="always")
+def _wrap(a):  # pragma: no cover - compiled
+    """Angle wrapped to [-pi, pi)."""
+    return a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
+
+
+@njit(cache=True, inline="always")
+def _saturate(tau, tmax):  # pragma: no cover - compiled
+    """Scale ``tau`` uniformly into the limits; True if it had to."""
+    worst = 0.0
+    for i in range(tau.shape[0]):
+        v = abs(tau[i]) / tmax[i]
+        if v > worst:
+            worst = v
+    if worst > 1.0:
+        for i in range(tau.shape[0]):
+            tau[i] /= worst
+        return True
+    return False
+
+
+@njit(cache=True)
+def _tw_force(x, ud0, ud1, ud2, uf0, uf1, uf2, p, J, Q):  # pragma: no cover - compiled
+    """ThreeWheel inverse dynamics (TW-6): ``Q = M(psi) udot + c(psi, u) - Q_f(psi, u_f)``
+    and the Jacobian ``J(psi)`` of TW-1 (rows in motor order)."""
+    cs = _tw._trig(x[6], x[7], x[8])
+    m00, m01, m02, m11, m12, m22 = _tw._mass(cs, p)
+    c0, c1, c2 = _tw._bias(cs, x[3], x[4], x[5], p)
+    f0, f1, f2 = _tw._friction(cs, uf0, uf1, uf2, p)
+    Q[0] = m00 * ud0 + m01 * ud1 + m02 * ud2 + c0 - f0
+    Q[1] = m01 * ud0 + m11 * ud1 + m12 * ud2 + c1 - f1
+    Q[2] = m02 * ud0 + m12 * ud1 + m22 * ud2 + c2 - f2
+    for i in range(3):
+        g, h = _tw._gh(cs, i, p)
+        jd, js = _tw._jrows_i(g, h, p)
+        for j in range(3):
+            J[i, j] = jd[j]
+            J[3 + i, j] = js[j]
+
+
+@njit(cache=True)
+def _tw_twist_one(x, cmd, p, tmax, kv, dt, mode, tau):  # pragma: no cover - compiled
+    J = np.empty((6, 3))
+    Q = np.empty(3)
+    e0 = cmd[0] - x[3]
+    e1 = cmd[1] - x[4]
+    e2 = cmd[2] - x[5]
+    ud0, ud1, ud2 = kv * e0, kv * e1, kv * e2
+    _tw_force(x, ud0, ud1, ud2, x[3] + ud0 * dt, x[4] + ud1 * dt, x[5] + ud2 * dt, p, J, Q)
+    _distribute_one(J, Q, tmax, mode, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _tw_track_one(x, pose, tw, rate, p, tmax, kp, kd, dt, mode, tau):  # pragma: no cover
+    """Computed torque with a world-frame PD on pose (module docstring)."""
+    yaw = x[2]
+    vx, vy, wz = x[3], x[4], x[5]
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    cr, sr = math.cos(pose[2]), math.sin(pose[2])
+    # world velocities of robot and reference (physics.md section 0)
+    vwx = cy * vx - sy * vy
+    vwy = sy * vx + cy * vy
+    rwx = cr * tw[0] - sr * tw[1]
+    rwy = sr * tw[0] + cr * tw[1]
+    # reference world acceleration: R_ref (udot_lin + wz S u_lin), S = [[0, -1], [1, 0]]
+    bx = rate[0] - tw[2] * tw[1]
+    by = rate[1] + tw[2] * tw[0]
+    awx = cr * bx - sr * by + kd * (rwx - vwx) + kp * (pose[0] - x[0])
+    awy = sr * bx + cr * by + kd * (rwy - vwy) + kp * (pose[1] - x[1])
+    alpha = rate[2] + kd * (tw[2] - wz) + kp * _wrap(pose[2] - yaw)
+    # back to the body twist rate: udot_lin = R^T a - wz S u_lin
+    ud0 = cy * awx + sy * awy + wz * vy
+    ud1 = -sy * awx + cy * awy - wz * vx
+    ud2 = alpha
+    J = np.empty((6, 3))
+    Q = np.empty(3)
+    _tw_force(x, ud0, ud1, ud2, vx + ud0 * dt, vy + ud1 * dt, wz + ud2 * dt, p, J, Q)
+    _distribute_one(J, Q, tmax, mode, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _ss_sides(eta0, eta1, ed0, ed1, p, dt):  # pragma: no cover - compiled
+    """SS-3 inverted: ``(tau_L, tau_R) = Bbar^-1 (Mbar etadot + Cbar eta + Rbar(eta_f))``."""
+    m, xicr, c, r = p[_ss._M], p[_ss._XICR], p[_ss._C], p[_ss._R]
+    r0, r1, _ = _ss._resist(eta0 + ed0 * dt, eta1 + ed1 * dt, p)
+    f0 = m * ed0 + m * xicr * eta1 * eta1 + r0  # Cbar eta = m x_icr (wz^2, -wz vx)
+    f1 = (m * xicr * xicr + p[_ss._I]) * ed1 - m * xicr * eta1 * eta0 + r1
+    # Bbar = (1/r) [[1, 1], [-c, c]]  ->  tau_L + tau_R = r f0, tau_R - tau_L = r f1 / c
+    s = r * f0
+    dlt = r * f1 / c
+    return 0.5 * (s - dlt), 0.5 * (s + dlt)
+
+
+@njit(cache=True, inline="always")
+def _ss_split(tl, tr, frac, tau):  # pragma: no cover - compiled
+    """SS-4: ``frac`` = share of the rear wheel on each side (0.5: min-norm halves)."""
+    tau[0] = frac[0] * tl
+    tau[1] = (1.0 - frac[0]) * tl
+    tau[2] = (1.0 - frac[1]) * tr
+    tau[3] = frac[1] * tr
+
+
+@njit(cache=True)
+def _ss_twist_one(x, cmd, p, tmax, frac, kv, dt, tau):  # pragma: no cover - compiled
+    ed0 = kv * (cmd[0] - x[3])
+    ed1 = kv * (cmd[1] - x[4])
+    tl, tr = _ss_sides(x[3], x[4], ed0, ed1, p, dt)
+    _ss_split(tl, tr, frac, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _ss_track_one(x, pose, tw, rate, p, tmax, frac, gains, dt, tau):  # pragma: no cover
+    """Kanayama's law on the ICR point P (no lateral slip), backstepped into computed torque."""
+    kx, ky, kth, kv, kwmax = gains[0], gains[1], gains[2], gains[3], gains[4]
+    xicr = p[_ss._XICR]
+    yaw, v, w = x[2], x[3], x[4]
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    px = x[0] + xicr * cy  # P = CoM + R (x_icr, 0): moves like a unicycle (SS-1)
+    py = x[1] + xicr * sy
+    dx, dy = pose[0] - px, pose[1] - py
+    ex = cy * dx + sy * dy
+    ey = -sy * dx + cy * dy
+    eth = _wrap(pose[2] - yaw)
+    vr, wr = tw[0], tw[2]
+    vrd, wrd = rate[0], rate[2]
+    if abs(vr) * kth > kwmax - kv:  # keep the sampled yaw-rate loop stable (class docstring)
+        k_new = (kwmax - kv) / abs(vr)
+        ky = ky * (k_new / kth) ** 2
+        kth = k_new
+    st, ct = math.sin(eth), math.cos(eth)
+    vc = vr * ct + kx * ex
+    wc = wr + vr * (ky * ey + kth * st)
+    # error rates of a unicycle (v, w) tracking (vr, wr)
+    exd = w * ey - v + vr * ct
+    eyd = -w * ex + vr * st
+    ethd = wr - w
+    vcd = vrd * ct - vr * st * ethd + kx * exd
+    wcd = wrd + vrd * (ky * ey + kth * st) + vr * (ky * eyd + kth * ct * ethd)
+    ed0 = vcd + kv * (vc - v)
+    ed1 = wcd + kv * (wc - w)
+    tl, tr = _ss_sides(v, w, ed0, ed1, p, dt)
+    _ss_split(tl, tr, frac, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _k_tw_twist(X, C, p, tmax, kv, dt, mode, out, sat):  # pragma: no cover - compiled
+    for n in range(X.shape[0]):
+        sat[n] = _tw_twist_one(X[n], C[n], p, tmax, kv, dt, mode, out[n])
+
+
+@njit(cache=True)
+def _k_tw_track(X, P, T, R, p, tmax, kp, kd, dt, mode, out, sat):  # pragma: no cover
+    for n in range(X.shape[0]):
+        sat[n] = _tw_track_one(X[n], P[n], T[n], R[n], p, tmax, kp, kd, dt, mode, out[n])
+
+
+@njit(cache=True)
+def _k_ss_twist(X, C, p, tmax, frac, kv, dt, out, sat):  # pragma: no cover - compiled
+    for n in range(X.shape[0]):
+        sat[n] = _ss_twist_one(X[n], C[n], p, tmax, frac, kv, dt, out[n])
+
+
+@njit(cache=True)
+def _k_ss_track(X, P, T, R, p, tmax, frac, gains, dt, out, sat):  # pragma: no cover
+    for n in range(X.shape[0]):
+        sat[n] = _ss_track_one(X[n], P[n], T[n], R[n], p, tmax, frac, gains, dt, out[n])
+
+
+@njit(cache=True)
+def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
+    for n in range(X.shape[0]):
+        _tw_force(X[n], UD[n, 0], UD[n, 1], UD[n, 2], UF[n, 0], UF[n, 1], UF[n, 2], p, J[n],
+                  Q[n])
+
+
+# ---------------------------------------------------------------------------- helpers
+_SUPPORTED = (ThreeWheel, SkidSteer)
+
+
+def _check_model(model: Any) -> None:
+    if not isinstance(model, _SUPPORTED):
+        raise TypeError(
+            "model must be one of "
+            f"{[c.__name__ for c in _SUPPORTED]}, got {type(model).__name__}"
+        )
+
+
+def _batch(a: Any, width: int, name: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 0 or arr.shape[-1] != width:
+        raise ValueError(f"{name} must have shape (..., {width}), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    return arr
+
+
+def _flat(arrays: list[np.ndarray]) -> tuple[list[np.ndarray], tuple[int, ...]]:
+    lead = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    out = [np.ascontiguousarray(np.broadcast_to(a, lead + a.shape[-1:]).reshape(-1, a.shape[-1]))
+           for a in arrays]
+    return out, lead
+
+
+def inverse_dynamics(model: ThreeWheel, x: Any, udot: Any, u_friction: Any = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Required generalized force ``Q_d = M(psi) udot + c(psi, u) - Q_f(psi, u_f)`` (TW-6).
+
+    Args:
+        model: a :class:`~wheelgym.models.ThreeWheel`.
+        x: state ``(..., 12)``; ``psi`` and the twist ``u`` are read from it.
+        udot: desired body twist rate ``(..., 3)`` (m/s², m/s², rad/s²).
+        u_friction: twist at which to evaluate friction (default: the state's twist).
+
+    Returns:
+        ``(Q_d, J)``: ``(..., 3)`` (N, N, N·m) and the TW-1 Jacobian ``(..., 6, 3)``; motor
+        torques follow from :func:`~wheelgym.control.distribution.distribute` ``(J, Q_d)``.
+    """
+    if not isinstance(model, ThreeWheel):
+        raise TypeError(f"model must be a ThreeWheel, got {type(model).__name__}")
+    X = _batch(x, 12, "x")
+    UD = _batch(udot, 3, "udot")
+    UF = X[..., 3:6] if u_friction is None else _batch(u_friction, 3, "u_friction")
+    (X2, UD2, UF2), lead = _flat([X, UD, UF])
+    J = np.empty((X2.shape[0], 6, 3))
+    Q = np.empty((X2.shape[0], 3))
+    _k_tw_inverse(X2, UD2, UF2, model._p, J, Q)
+    return Q.reshape(lead + (3,)), J.reshape(lead + (6, 3))
+
+
+def tracked_point(model: Any, x: Any) -> np.ndarray:
+    """World position ``(..., 2)`` of the point a :class:`TrackingController` steers onto the path.
+
+    ThreeWheel: the centre of mass. SkidSteer: the point ``P`` at ``(x_icr, 0)`` in B, the one
+    body point without lateral velocity (SS-1: ``vy + x_icr wz = 0``), which moves like a
+    unicycle; the centre of mass cannot keep its velocity along its heading while turning.
+    """
+    _check_model(model)
+    X = _batch(x, model.state_dim, "x")
+    if isinstance(model, SkidSteer):
+        xi = model.params.x_icr
+        return np.stack([X[..., 0] + xi * np.cos(X[..., 2]), X[..., 1] + xi * np.sin(X[..., 2])],
+                        axis=-1)
+    return X[..., :2].copy()
+
+
+# ---------------------------------------------------------------------------- controllers
+class _Controller:
+    """Shared parts: model checks, distribution mode, limits, SB3-style ``predict``."""
+
+    _gains_type: type = TwistGains
+
+    def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm") -> None:
+        _check_model(model)
+        self.model = model
+        self.gains = _make_gains(self._gains_for(model), gains)
+        self._p = model._p
+        if isinstance(model, ThreeWheel):
+            if distribution not in DISTRIBUTIONS:
+                raise ValueError(
+                    f"distribution must be one of {DISTRIBUTIONS} for ThreeWheel, "
+                    f"got {distribution!r}"
+                )
+            self._mode = DISTRIBUTIONS.index(distribution)
+            self._tmax = np.ascontiguousarray(model.params.tau_max, dtype=np.float64)
+        else:
+            valid = ("min_norm", "loads")
+            if distribution not in valid:
+                raise ValueError(
+                    f"distribution must be one of {valid} for SkidSteer (SS-4: equal halves or "
+                    f"in proportion to the normal loads), got {distribution!r}"
+                )
+            self._mode = valid.index(distribution)
+            n = model.params.normal_loads  # [RL, FL, FR, RR]
+            rear = 0.5 if distribution == "min_norm" else n[0] / (n[0] + n[1])
+            rear_r = 0.5 if distribution == "min_norm" else n[3] / (n[2] + n[3])
+            self._frac = np.array([rear, rear_r])
+            self._tmax = np.full(4, float(model.params.tau_max))
+        self.distribution = distribution
+        self._t: np.ndarray | float = 0.0
+
+    def _gains_for(self, model: Any) -> type:
+        return self._gains_type
+
+    @property
+    def tau_max(self) -> np.ndarray:
+        """Motor torque limits (N·m), motor order."""
+        return self._tmax.copy()
+
+    def reset(self) -> None:
+        """Forget the time counter of :meth:`predict` (``torques`` keeps no state)."""
+        self._t = 0.0
+
+    def act(self, state: Any, reference: Any) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class TwistController(_Controller):
+    """Commanded body twist -> motor torques (computed torque, then load distribution).
+
+    Twist command: ``(vx, vy, wz)`` for ThreeWheel, ``(vx, wz)`` for SkidSteer. See the
+    module docstring for the sampled-loop design (deadbeat ``k_v = 1/ctrl_dt``).
+
+    Args:
+        model: the controller's model (its parameters may differ from the plant's).
+        gains: :class:`TwistGains`, a mapping of its fields, or None.
+        distribution: ThreeWheel: ``"min_norm"`` (default), ``"weighted"`` or
+            ``"within_limits"``; SkidSteer: ``"min_norm"`` (equal halves) or ``"loads"``.
+    """
+
+    @property
+    def command_dim(self) -> int:
+        return 3 if isinstance(self.model, ThreeWheel) else 2
+
+    def torques(self, x: Any, twist_cmd: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Motor torques for state(s) ``x`` ``(..., n)`` and commands ``(..., k)``.
+
+        Returns:
+            ``(tau, saturated)``: ``(..., m)`` N·m within the limits, and ``(...,)`` bool.
+        """
+        X = _batch(x, self.model.state_dim, "x")
+        C = _batch(twist_cmd, self.command_dim, "twist_cmd")
+        (X2, C2), lead = _flat([X, C])
+        n = X2.shape[0]
+        out = np.empty((n, self.model.input_dim))
+        sat = np.empty(n, dtype=np.bool_)
+        g = self.gains
+        if isinstance(self.model, ThreeWheel):
+            _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
+        else:
+            _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out, sat)
+        return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
+
+    def act(self, state: Any, reference: Any) -> np.ndarray:
+        """Torques for ``state`` and a twist command ``reference``."""
+        return self.torques(state, reference)[0]
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """SB3-style: ``observation`` is ``concat(model state, twist command)``."""
+        obs = np.asarray(observation, dtype=np.float64)
+        n = self.model.state_dim
+        return self.act(obs[..., :n], obs[..., n:]), None
+
+
+class TrackingController(_Controller):
+    """Trajectory tracking by computed torque.
+
+    * ThreeWheel (holonomic): feedforward from the reference twist and its rate plus a
+      world-frame PD on pose and twist (:class:`TrackingGains`), inverse dynamics (TW-6), then
+      load distribution.
+    * SkidSteer (nonholonomic): Kanayama's law on the ICR point (:func:`tracked_point`), its
+      time derivative fed forward, a twist loop, computed torque through SS-3, then the
+      per-side split (SS-4) (:class:`UnicycleTrackingGains`). The reference must have a
+      tangent heading (``vy = 0``) and describes that point's motion.
+
+    Args:
+        model: the controller's model.
+        gains: the gains dataclass for the model, a mapping, or None.
+        distribution: as for :class:`TwistController`.
+        trajectory: optional :class:`~wheelgym.tasks.references.Reference` used by
+            :meth:`predict` (evaluated at ``k * ctrl_dt`` on the k-th call since reset).
+    """
+
+    def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm",
+                 trajectory: Any = None) -> None:
+        super().__init__(model, gains, distribution)
+        if trajectory is not None and not hasattr(trajectory, "evaluate"):
+            raise TypeError("trajectory must have an evaluate(t) method (a Reference)")
+        self.trajectory = trajectory
+
+    def _gains_for(self, model: Any) -> type:
+        return TrackingGains if isinstance(model, ThreeWheel) else UnicycleTrackingGains
+
+    def torques(self, x: Any, ref_pose: Any, ref_twist: Any, ref_twist_rate: Any
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """Motor torques ``(..., m)`` and ``saturated`` ``(...,)`` for state(s) ``x``.
+
+        ``ref_pose`` ``(..., 3)`` world (x, y, yaw); ``ref_twist`` and ``ref_twist_rate``
+        ``(..., 3)`` in the reference's body frame (as :meth:`Reference.evaluate` returns).
+        """
+        X = _batch(x, self.model.state_dim, "x")
+        P = _batch(ref_pose, 3, "ref_pose")
+        T = _batch(ref_twist, 3, "ref_twist")
+        R = _batch(ref_twist_rate, 3, "ref_twist_rate")
+        (X2, P2, T2, R2), lead = _flat([X, P, T, R])
+        n = X2.shape[0]
+        out = np.empty((n, self.model.input_dim))
+        sat = np.empty(n, dtype=np.bool_)
+        g = self.gains
+        if isinstance(self.model, ThreeWheel):
+            _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
+                        self._mode, out, sat)
+        else:
+            gv = np.array([g.k_x, g.k_y, g.k_yaw, g.k_v, g.k_w_max])
+            _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, gv, g.ctrl_dt, out,
+                        sat)
+        return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
+
+    def act(self, state: Any, reference: Any) -> np.ndarray:
+        """Torques for ``state`` and ``reference = (pose, twist, twist_rate)``."""
+        if not (isinstance(reference, (tuple, list)) and len(reference) == 3):
+            raise TypeError("reference must be a (pose, twist, twist_rate) tuple")
+        return self.torques(state, *reference)[0]
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """SB3-style: ``observation`` is the raw model state; needs ``trajectory``.
+
+        Keeps a time counter per leading index (``episode_start`` True resets it).
+        """
+        if self.trajectory is None:
+            raise ValueError("predict needs a trajectory (pass trajectory=... to the constructor)")
+        obs = _batch(observation, self.model.state_dim, "observation")
+        lead = obs.shape[:-1]
+        t = np.broadcast_to(np.asarray(self._t, dtype=np.float64), lead).copy()
+        if episode_start is not None:
+            t = np.where(np.asarray(episode_start, dtype=bool), 0.0, t)
+        tau = self.act(obs, self.trajectory.evaluate(t))
+        self._t = t + self.gains.ctrl_dt
+        return tau, None
+
+
+def make_controller(model: Any, kind: str = "twist", **kwargs: Any) -> _Controller:
+    """Build a controller: ``kind`` ``"twist"`` (:class:`TwistController`) or ``"tracking"``
+    (:class:`TrackingController`); keyword arguments go to the constructor."""
+    kinds = {"twist": TwistController, "tracking": TrackingController}
+    if kind not in kinds:
+        raise ValueError(f"kind must be one of {sorted(kinds)}, got {kind!r}")
+    return kinds[kind](model, **kwargs)
