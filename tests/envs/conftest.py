@@ -15,7 +15,7 @@ TASKS = ("goal", "track", "navigate")
 
 def velocity_available() -> bool:
     try:
-        from wheelgym.control import TwistController  # noqa: F401
+        from wheelgym.control.controllers import TwistController  # noqa: F401
     except ImportError:
         return False
     return True

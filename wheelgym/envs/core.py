@@ -118,14 +118,11 @@ class WheelCore:
         elif mode == "velocity":
             self.action_dim = spec.twist_dim
             self.twist_max = np.array(spec.twist_max)
-            try:
-                from wheelgym.control import TwistController
-            except ImportError as exc:  # the control package has not landed
-                raise ValueError(
-                    "action_mode='velocity' needs wheelgym.control.TwistController, which is "
-                    f"not available ({exc}); valid modes now: ['torque']"
-                ) from exc
-            self.controller = TwistController(self.model)
+            from wheelgym.control.controllers import TwistController
+
+            # deadbeat twist loop at this control period (controllers.py module docstring)
+            self.controller = TwistController(
+                self.model, gains={"k_v": 1.0 / self.dt, "ctrl_dt": self.dt})
         else:
             self.action_dim = spec.n_motor
         m = self.model.input_dim
@@ -144,7 +141,7 @@ class WheelCore:
             self.model.input_bounds()
         self.LO = np.tile(lo, (N, 1))
         self.HI = np.tile(hi, (N, 1))
-        self.A = np.zeros((N, m))
+        self.A = np.zeros((N, self.action_dim))  # the normalised actions' shape
         self.U = np.zeros((N, m))
         self.jv = np.zeros((N, m))
         self.energy = np.zeros(N)
@@ -274,7 +271,7 @@ class WheelCore:
                              ("Xo", "U", "jv", "eff", "pose", "twist", "feat", "xf", "sat", "ok",
                               "energy")}
         s = self._scratch
-        A0 = np.zeros_like(self.A)
+        A0 = np.zeros_like(self.U)
         s["energy"][:] = 0.0
         self.spec.k_env_step(self.X, A0, self.LO, self.HI, self.P, self.h, 0, s["Xo"], s["U"],
                              s["jv"], s["energy"], s["eff"], s["pose"], s["twist"], s["feat"],
