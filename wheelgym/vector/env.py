@@ -1,0 +1,449 @@
+"""Native batched Gymnasium vector environments: N robots in one :class:`WheelCore`.
+
+:class:`WheelVectorEnv` steps all N sub-environments with the same compiled model, controller,
+task and reward kernels as :class:`~wheelgym.envs.wheel_env.WheelEnv` (which is the core at
+N = 1), so sub-environment ``i`` is bit for bit the single environment: reset with seed
+``s + i`` and fed the same actions it returns the same observations, rewards, terminations,
+truncations and infos (``tests/vector``).
+
+Semantics (Gymnasium 1.x):
+
+autoreset
+    ``metadata["autoreset_mode"]``; default ``AutoresetMode.NEXT_STEP`` (Gymnasium's default:
+    the step after an episode ends resets that sub-env, ignores its action and returns reward 0
+    and ``terminated = truncated = False``). ``SAME_STEP`` resets within the ending step and puts
+    ``final_obs`` and ``final_info`` in ``info`` (the SB3 adapter uses it); ``DISABLED`` leaves
+    resets to ``reset(options={"reset_mask": mask})``.
+time limit
+    ``max_episode_steps`` (the id's 500 through ``gym.make_vec``) counted per sub-env; reaching
+    it sets ``truncated`` (as ``TimeLimit`` does, also when ``terminated``). ``None``: no limit.
+seeding
+    ``reset(seed=s)`` seeds sub-env i with ``s + i``; ``seed=[s_0, s_1, ...]`` one each;
+    ``None`` keeps each sub-env's generator (a fresh random one the first time). Autoresets
+    continue the generator, as a single environment's ``reset()`` does.
+info
+    Gymnasium's vector format: each key of the single env's info as an array with leading axis
+    N plus a bool mask ``_key``; nested dicts (``reward_terms``, and reset's ``params`` and
+    ``task``) nest the same way. Step keys cover every sub-env; reset-only keys are masked to
+    the sub-envs that reset. The same arrays ``SyncVectorEnv`` of single envs would build.
+actions
+    ``(N, action_dim)``; entries outside [-1, 1] are clipped; a wrong shape or a non-finite
+    entry (in a sub-env that steps) raises ``ValueError``.
+render
+    ``render_mode="rgb_array"``: ``render()`` returns sub-env 0's frame ``(600, 600, 3)`` uint8,
+    or a grid of the first ``render_envs`` sub-envs.
+
+The keyword arguments are those of the single environment (see :class:`wheelgym.envs.WheelEnv`)
+plus ``num_envs``, ``max_episode_steps``, ``autoreset_mode`` and ``render_envs``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import logger, spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
+
+__all__ = [
+    "WheelVectorEnv",
+    "ThreeWheelVectorEnv",
+    "SkidSteerVectorEnv",
+    "CasterAGVVectorEnv",
+    "DiffDriveVectorEnv",
+    "UnicycleVectorEnv",
+    "BicycleVectorEnv",
+    "AckermannVectorEnv",
+]
+
+_MODES = {m.value: m for m in AutoresetMode}
+
+
+def _autoreset_mode(value: Any) -> AutoresetMode:
+    if isinstance(value, AutoresetMode):
+        return value
+    if isinstance(value, str) and value in _MODES:
+        return _MODES[value]
+    raise ValueError(
+        f"autoreset_mode must be one of {list(AutoresetMode)} (or their values "
+        f"{list(_MODES)}), got {value!r}"
+    )
+
+
+def _masked(arr: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``arr`` with rows outside ``mask`` zeroed (Gymnasium fills absent entries with 0)."""
+    out = np.zeros_like(arr)
+    out[mask] = arr[mask]
+    return out
+
+
+class WheelVectorEnv(VectorEnv):
+    """N sub-environments of one robot and task stepped as one batch (module docstring).
+
+    Args:
+        num_envs: number of sub-environments N.
+        task, action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights,
+            range_backend, horizon: as :class:`~wheelgym.envs.WheelEnv` (shared by all N).
+        max_episode_steps: per-sub-env time limit in control steps, or ``None``.
+        autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` (or its value string).
+        render_mode: ``None`` or ``"rgb_array"``.
+        render_envs: how many sub-envs (the first ones) ``render()`` draws, tiled in a grid.
+        robot: robot name; set by the per-robot subclasses (``ThreeWheelVectorEnv``...).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 20,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+    robot: ClassVar[str] = ""
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str = "goal",
+        action_mode: str | None = None,
+        params: Mapping[str, Any] | None = None,
+        ctrl_dt: float | None = None,
+        sim_dt: float | None = None,
+        randomize: Mapping[str, Any] | bool | None = None,
+        obs_noise: float = 0.0,
+        reward_weights: Mapping[str, float] | None = None,
+        render_mode: str | None = None,
+        range_backend: str = "analytic",
+        horizon: int = DEFAULT_HORIZON,
+        max_episode_steps: int | None = DEFAULT_HORIZON,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        render_envs: int = 1,
+        robot: str | None = None,
+    ) -> None:
+        robot = self.robot if robot is None else robot
+        if not robot:
+            raise ValueError("robot must be given (or use a per-robot class such as "
+                             "ThreeWheelVectorEnv)")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) \
+                or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive int, got {num_envs!r}")
+        if max_episode_steps is not None and (
+                isinstance(max_episode_steps, bool)
+                or not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1):
+            raise ValueError(f"max_episode_steps must be None or a positive int, "
+                             f"got {max_episode_steps!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or one of "
+                             f"{self.metadata['render_modes']}, got {render_mode!r}")
+        if isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer)) \
+                or not 1 <= render_envs <= num_envs:
+            raise ValueError(f"render_envs must be an int in [1, num_envs={num_envs}], "
+                             f"got {render_envs!r}")
+        mode = _autoreset_mode(autoreset_mode)
+        self.core = c = WheelCore(
+            robot, int(num_envs), task=task, action_mode=action_mode, params=params,
+            ctrl_dt=ctrl_dt, sim_dt=sim_dt, randomize=randomize, obs_noise=obs_noise,
+            reward_weights=reward_weights, horizon=horizon, range_backend=range_backend,
+        )
+        self.num_envs = N = int(num_envs)
+        self.task = task
+        self.action_mode = c.action_mode
+        self.dt = c.dt
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
+        self.autoreset_mode = mode
+        self.render_mode = render_mode
+        self.render_envs = int(render_envs)
+        self.metadata = {**self.metadata, "autoreset_mode": mode,
+                         "render_fps": int(round(1.0 / c.dt))}
+        # the single environment's spaces, batched
+        self.single_action_space = spaces.Box(-1.0, 1.0, (c.action_dim,), np.float32)
+        self.single_observation_space = spaces.Box(c.obs_low, c.obs_high, dtype=np.float32)
+        self.action_space = batch_space(self.single_action_space, N)
+        self.observation_space = batch_space(self.single_observation_space, N)
+
+        self._names = c.task.names
+        self._tidx = [int(k) for k in c.task.term_index]
+        self._nmotor = c.spec.n_motor
+        self._rngs: list[np.random.Generator | None] = [None] * N
+        self._elapsed = np.zeros(N, dtype=np.int64)
+        self._started = np.zeros(N, dtype=np.bool_)
+        self._autoreset = np.zeros(N, dtype=np.bool_)  # NEXT_STEP: rows to reset next step
+        self._done = np.zeros(N, dtype=np.bool_)  # DISABLED: rows ended, not yet reset
+        self._renderers: list[Any] | None = None
+
+    # ------------------------------------------------------------------ seeding and reset
+    def _seed_list(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+        N = self.num_envs
+        if seed is None:
+            return [None] * N
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(N)]
+        if isinstance(seed, Sequence) and not isinstance(seed, str):
+            if len(seed) != N:
+                raise ValueError(f"seed as a list must have num_envs={N} entries, got {len(seed)}")
+            return list(seed)
+        raise TypeError(f"seed must be None, an int or a list of num_envs ints, got {seed!r}")
+
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset the sub-envs (all, or those in ``options["reset_mask"]``).
+
+        Returns:
+            ``obs (N, obs_dim) float32`` and the batched reset info.
+        """
+        N = self.num_envs
+        seeds = self._seed_list(seed)
+        options = dict(options) if options else {}
+        mask = options.pop("reset_mask", None)
+        if mask is None:
+            mask = np.ones(N, dtype=np.bool_)
+        else:
+            mask = np.asarray(mask)
+            if mask.shape != (N,) or mask.dtype != np.bool_:
+                raise ValueError(f"options['reset_mask'] must be a bool array of shape ({N},), "
+                                 f"got {mask.dtype} {mask.shape}")
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must select at least one sub-env")
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            super().reset(seed=int(seed))
+        rows = np.flatnonzero(mask)
+        for i in rows:
+            if seeds[i] is not None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+            elif self._rngs[i] is None:
+                self._rngs[i] = seeding.np_random()[0]
+        self._reset_rows(rows, options or None)
+        self._autoreset[rows] = False
+        info = self._info(mask, mask)
+        if not mask.all():
+            info = self._mask_info(info, mask)
+        return self.core.obs.copy(), info
+
+    def _reset_rows(self, rows: np.ndarray, options: dict | None = None) -> None:
+        self.core.reset(rows, self._rngs, options)
+        self._elapsed[rows] = 0
+        self._started[rows] = True
+        self._done[rows] = False
+        if self._renderers is not None:
+            for i, r in enumerate(self._renderers):
+                if self._started[i] and i in rows:
+                    r.reset()
+
+    # ------------------------------------------------------------------ step
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                 np.ndarray, dict[str, Any]]:
+        """Step every sub-env with its row of ``actions`` ``(N, action_dim)``.
+
+        Returns:
+            ``obs (N, obs_dim) float32``, ``rewards (N,) float64``, ``terminations (N,) bool``,
+            ``truncations (N,) bool`` and the batched info (module docstring).
+        """
+        c = self.core
+        N = self.num_envs
+        if not self._started.all():
+            raise RuntimeError("call reset() (on every sub-env) before step()")
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != c.A.shape:
+            raise ValueError(f"actions must have shape {c.A.shape}, got {np.shape(actions)}")
+        mode = self.autoreset_mode
+        if mode is AutoresetMode.DISABLED and self._done.any():
+            raise RuntimeError(
+                f"sub-envs {np.flatnonzero(self._done).tolist()} ended; with autoreset_mode "
+                "DISABLED reset them with reset(options={'reset_mask': mask}) before step()")
+        rr = self._autoreset if mode is AutoresetMode.NEXT_STEP else None
+        active = None
+        if rr is not None and rr.any():
+            rr = rr.copy()
+            a = a.copy()
+            a[rr] = 0.0  # ignored: those sub-envs reset instead of stepping
+            active = ~rr
+        else:
+            rr = None
+        _, reward, term, _ = c.step(a, active)
+        reward = reward.copy()
+        term = term.copy()
+        self._elapsed += 1
+        trunc = (self._elapsed >= self.max_episode_steps) if self.max_episode_steps is not None \
+            else np.zeros(N, dtype=np.bool_)
+        final: dict[str, Any] | None = None
+        if rr is not None:  # NEXT_STEP: these rows reset now instead of stepping
+            self._reset_rows(np.flatnonzero(rr))
+            reward[rr] = 0.0
+            term[rr] = False
+            trunc[rr] = False
+            info = self._info(np.ones(N, dtype=np.bool_), rr)
+        elif mode is AutoresetMode.SAME_STEP and (term.any() or trunc.any()):
+            done = term | trunc
+            step_info = self._info(np.ones(N, dtype=np.bool_), None)
+            final_obs = np.full(N, None, dtype=object)
+            for i in np.flatnonzero(done):
+                final_obs[i] = c.obs[i].copy()
+            final = {"final_obs": final_obs, "_final_obs": done.copy(),
+                     "final_info": self._mask_info(step_info, done), "_final_info": done.copy()}
+            self._reset_rows(np.flatnonzero(done))
+            info = self._info(np.ones(N, dtype=np.bool_), done)
+        else:
+            info = self._info(np.ones(N, dtype=np.bool_), None)
+        if final is not None:
+            info.update(final)
+        if mode is AutoresetMode.NEXT_STEP:
+            np.logical_or(term, trunc, out=self._autoreset)
+        elif mode is AutoresetMode.DISABLED:
+            np.logical_or(term, trunc, out=self._done)
+        return c.obs.copy(), reward, term, trunc, info
+
+    # ------------------------------------------------------------------ info
+    def _info(self, rows: np.ndarray, reset: np.ndarray | None) -> dict[str, Any]:
+        """The single env's info keys for every row (values from the core's buffers, which
+        hold the reset values for rows just reset); ``reset`` rows get zero reward terms and
+        the reset-only keys ``params`` and ``task``."""
+        c = self.core
+        nm = self._nmotor
+        info: dict[str, Any] = {
+            "pose": c.pose.copy(),
+            "twist": c.twist.copy(),
+            "motor_torque": c.U[:, :nm].copy(),
+            "joint_velocity": c.jv[:, :nm].copy(),
+            "tracking_error": c.err.copy(),
+            "energy": c.energy.copy(),
+            "internal_force": c.xf.copy(),
+            "saturated": c.sat.copy(),
+            "is_success": c.succ.copy(),
+            "numerical_failure": ~c.ok,
+        }
+        for k in list(info):
+            info["_" + k] = rows.copy()
+        terms: dict[str, Any] = {}
+        for n, k in zip(self._names, self._tidx, strict=True):
+            col = c.terms[:, k].copy()
+            if reset is not None:
+                col[reset] = 0.0
+            terms[n] = col
+            terms["_" + n] = rows.copy()
+        info["reward_terms"] = terms
+        info["_reward_terms"] = rows.copy()
+        if reset is not None and reset.any():
+            info.update(self._reset_info(reset))
+        return info
+
+    def _reset_info(self, reset: np.ndarray) -> dict[str, Any]:
+        c = self.core
+        N = self.num_envs
+        idx = np.flatnonzero(reset)
+        params: dict[str, Any] = {}
+        for i in idx:
+            for k, v in c.drawn[i].items():
+                if k not in params:
+                    params[k] = np.zeros(N)
+                    params["_" + k] = np.zeros(N, dtype=np.bool_)
+                params[k][i] = v
+                params["_" + k][i] = True
+        task = c.task
+        tinfo: dict[str, Any] = {"name": np.full(N, None, dtype=object)}
+        tinfo["name"][idx] = c.task_name
+        if hasattr(task, "goal"):
+            tinfo["goal"] = _masked(task.goal, reset)
+        if hasattr(task, "kind"):
+            ref = np.full(N, None, dtype=object)
+            for i in idx:
+                ref[i] = task.kind[i]
+            tinfo["reference"] = ref
+        for k in list(tinfo):
+            tinfo["_" + k] = reset.copy()
+        return {"params": params, "_params": reset.copy(), "task": tinfo, "_task": reset.copy()}
+
+    def _mask_info(self, info: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:
+        """``info`` restricted to ``mask`` (entries outside zeroed, masks and-ed)."""
+        out: dict[str, Any] = {}
+        for k, v in info.items():
+            if isinstance(v, dict):
+                out[k] = self._mask_info(v, mask)
+            elif k.startswith("_"):
+                out[k] = v & mask
+            elif v.dtype == object:
+                out[k] = np.where(mask, v, None)
+            else:
+                out[k] = _masked(v, mask)
+        return out
+
+    # ------------------------------------------------------------------ rendering
+    def render(self) -> np.ndarray | None:
+        """Sub-env 0's frame, or a grid of the first ``render_envs`` (``rgb_array``)."""
+        if self.render_mode is None:
+            logger.warn("render() called without a render_mode; pass render_mode='rgb_array' "
+                        "to gym.make_vec")
+            return None
+        if not self._started.all():
+            raise RuntimeError("call reset() before render()")
+        if self._renderers is None:
+            from wheelgym.render import Renderer
+
+            self._renderers = [Renderer(self.core, "rgb_array", self.metadata["render_fps"])
+                               for _ in range(self.render_envs)]
+        frames = [r.render(i) for i, r in enumerate(self._renderers)]
+        if len(frames) == 1:
+            return frames[0]
+        cols = math.ceil(math.sqrt(len(frames)))
+        rows = math.ceil(len(frames) / cols)
+        h, w, ch = frames[0].shape
+        grid = np.full((rows * h, cols * w, ch), 255, dtype=np.uint8)
+        for k, f in enumerate(frames):
+            r, q = divmod(k, cols)
+            grid[r * h:(r + 1) * h, q * w:(q + 1) * w] = f
+        return grid
+
+    def close_extras(self, **kwargs: Any) -> None:
+        if self._renderers is not None:
+            for r in self._renderers:
+                r.close()
+            self._renderers = None
+
+
+class ThreeWheelVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.ThreeWheelEnv` (``gym.make_vec("wheelgym/ThreeWheel-v0",
+    num_envs=N)``)."""
+
+    robot = "ThreeWheel"
+
+
+class SkidSteerVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.SkidSteerEnv`."""
+
+    robot = "SkidSteer"
+
+
+class CasterAGVVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.CasterAGVEnv`."""
+
+    robot = "CasterAGV"
+
+
+class DiffDriveVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.DiffDriveEnv`."""
+
+    robot = "DiffDrive"
+
+
+class UnicycleVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.UnicycleEnv`."""
+
+    robot = "Unicycle"
+
+
+class BicycleVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.BicycleEnv`."""
+
+    robot = "Bicycle"
+
+
+class AckermannVectorEnv(WheelVectorEnv):
+    """Batched :class:`~wheelgym.envs.AckermannEnv`."""
+
+    robot = "Ackermann"
