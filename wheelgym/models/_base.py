@@ -126,7 +126,9 @@ class Model:
 
     Models opt into the checks of :mod:`wheelgym.validate` by providing ``stiffness()``
     (stability margin), ``kinetic_energy``/``motor_power``/``friction_power`` (energy balance)
-    and ``friction_params`` (the parameters that :meth:`frictionless` sets to zero).
+    and ``friction_params`` (the parameters that :meth:`frictionless` sets to zero); optional
+    ``input_high`` (input limits), ``validation_state()`` and ``validation_manoeuvre(t)``
+    replace the validation's generic start state and inputs.
 
     Attributes:
         state_names: names of the state entries, in order.
