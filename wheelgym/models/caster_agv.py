@@ -65,9 +65,10 @@ from wheelgym.models.friction import sgn_s
 
 __all__ = ["CasterAGVParams", "CasterAGV"]
 
-# Layout of the packed parameter vector (the last nine are derived).
+# Layout of the packed parameter vector (the last fifteen are derived).
 (_MB, _IB, _XG, _MW, _IWY, _IWZ, _R, _C, _AX, _AY, _D, _RC, _MC, _ICY, _ICZ, _MUR, _MUP,
- _RHO, _BD, _BC, _KS, _G, _TMAX, _KW, _KC, _KCZ, _MT, _INVR, _INVRC, _INVD, _M11, _MBXG) = range(32)
+ _RHO, _BD, _BC, _KS, _G, _TMAX, _KW, _KC, _KCZ, _MT, _INVR, _INVRC, _INVD, _M11, _MBXG,
+ _GMBXG, _GMC, _GDRV, _INVC, _BDR2, _BCR2) = range(38)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,7 +180,9 @@ class CasterAGVParams(Params):
              self.mu_p, self.rho, self.b_drive, self.b_caster, self.k_s, self.g, self.tau_max,
              kw, self.m_c + self.I_cy / self.r_c**2, self.I_cz / self.d**2, self.m_total,
              1.0 / self.r, 1.0 / self.r_c, 1.0 / self.d,
-             self.I_b + self.m_b * self.x_G**2 + 2.0 * self.I_wz, self.m_b * self.x_G],
+             self.I_b + self.m_b * self.x_G**2 + 2.0 * self.I_wz, self.m_b * self.x_G,
+             self.g * self.m_b * self.x_G, self.g * self.m_c, self.g * (self.m_b + 2 * self.m_w),
+             1.0 / self.c, self.b_drive / self.r**2, self.b_caster / self.r_c**2],
             dtype=np.float64,
         )
 
@@ -202,19 +205,20 @@ def _gh(cs, sn, p):  # pragma: no cover - compiled
     return cs, ax * sn - ay * cs, -sn, ax * cs + ay * sn
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _loads(cs, sn, p):  # pragma: no cover - compiled
     """Static normal loads ``(N_L, N_R, N_c)`` (N): total weight at the total centre of mass,
-    force and moment balance over the contacts ``(0, c)``, ``(0, -c)``, ``p = a - d e``."""
+    force and moment balance over the contacts ``(0, c)``, ``(0, -c)``, ``p = a - d e``.
+
+    Moments about the axle line give ``N_c p_x = g (m_b x_G + m_c p_x)``, about the x axis
+    ``c (N_L - N_R) + N_c p_y = g m_c p_y``; with ``t = g m_b x_G / p_x`` these read
+    ``N_c = t + g m_c`` and ``N_L - N_R = -t p_y / c``."""
     px = p[_AX] - p[_D] * cs
     py = p[_AY] - p[_D] * sn
-    wt = p[_MT] * p[_G]
-    gx = (p[_MBXG] + p[_MC] * px) * p[_G]  # weight * CoM x (driven wheels at x = 0)
-    gy = p[_MC] * py * p[_G]  # weight * CoM y (driven wheels symmetric)
-    n_c = gx / px  # moment about the axle line
-    diff = (gy - n_c * py) / p[_C]  # N_L - N_R from the moment about the x axis
-    rest = wt - n_c
-    return 0.5 * (rest + diff), 0.5 * (rest - diff), n_c
+    t = p[_GMBXG] / px
+    rest = p[_GDRV] - t  # N_L + N_R
+    diff = -t * py * p[_INVC]  # N_L - N_R
+    return 0.5 * (rest + diff), 0.5 * (rest - diff), t + p[_GMC]
 
 
 @njit(cache=True, inline="always")
@@ -245,18 +249,16 @@ def _friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p):  # pragma: no cover -
     """Generalized friction ``Q_f(sigma, u)`` (module docstring, physics.md TW-4)."""
     c = p[_C]
     ks = p[_KS]
-    invr = p[_INVR]
-    invrc = p[_INVRC]
     invd = p[_INVD]
     ul = v - c * w  # g_L . u
     ur = v + c * w  # g_R . u
-    fl = p[_MUR] * n_l * sgn_s(ul, ks) + p[_BD] * ul * invr * invr
-    fr = p[_MUR] * n_r * sgn_s(ur, ks) + p[_BD] * ur * invr * invr
+    fl = p[_MUR] * n_l * sgn_s(ul, ks) + p[_BDR2] * ul
+    fr = p[_MUR] * n_r * sgn_s(ur, ks) + p[_BDR2] * ur
     piv = p[_MUP] * (n_l + n_r) * sgn_s(p[_RHO] * w, ks)  # drive-wheel pivot scrub
     gu = gc0 * v + gc1 * w
     hu = hc0 * v + hc1 * w
     pivot = hu * invd  # caster wheel rate about the vertical, w + sigmadot
-    fa = p[_MUR] * n_c * sgn_s(gu, ks) + p[_BC] * gu * invrc * invrc
+    fa = p[_MUR] * n_c * sgn_s(gu, ks) + p[_BCR2] * gu
     fb = p[_MUP] * n_c * sgn_s(p[_RHO] * pivot, ks) * invd
     fs = p[_BC] * (pivot - w)  # swivel joint, b_caster sigmadot
     q0 = -(fl + fr) - fa * gc0 - (fb + fs * invd) * hc0
