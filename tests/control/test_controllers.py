@@ -187,9 +187,16 @@ def test_batched_equals_looped_and_broadcasts():
             t1, s1 = ctl.torques(x[i, j], pose[i, j], tw[i, j], rate[i, j])
             np.testing.assert_array_equal(t1, tau[i, j])
             assert s1 == sat[i, j]
-    tc = TwistController(model)
-    tau_b, _ = tc.torques(x, np.array([0.1, 0.0, 0.2]))  # one command for all states
-    assert tau_b.shape == (2, 3, 6)
+    for mode in ("min_norm", "weighted", "within_limits"):
+        tc = TwistController(model, distribution=mode)
+        cmd = np.array([0.1, 0.0, 0.2])
+        tau_b, sat_b = tc.torques(x, cmd)  # one command for all states
+        assert tau_b.shape == (2, 3, 6)
+        for i in range(2):
+            for j in range(3):
+                t1, s1 = tc.torques(x[i, j], cmd)  # single-state fast path
+                np.testing.assert_array_equal(t1, tau_b[i, j])
+                assert s1 == sat_b[i, j]
 
 
 def test_saturation_scales_uniformly_and_reports():
@@ -204,6 +211,10 @@ def test_saturation_scales_uniformly_and_reports():
     np.testing.assert_allclose(g / np.linalg.norm(g), Q / np.linalg.norm(Q), atol=1e-12)
     tau_s, sat_s = ctl.torques(x, np.array([0.01, 0.0, 0.0]))
     assert not sat_s and np.all(np.abs(tau_s) < tmax)
+    # no solution within the limits: the limit-respecting mode reports it too
+    lim = TwistController(model, distribution="within_limits")
+    tau_l, sat_l = lim.torques(x, np.array([3.0, 0.0, 0.0]))
+    assert sat_l and np.all(np.abs(tau_l) <= tmax * (1 + 1e-12))
 
 
 def test_within_limits_mode_avoids_saturation_where_possible():

@@ -41,11 +41,18 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from wheelgym import integrators as _integrators
+from wheelgym.control import _cache
+from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
+from wheelgym.models import friction as _friction
 from wheelgym.models import skid_steer as _ss
 from wheelgym.models import three_wheel as _tw
 from wheelgym.models.skid_steer import SkidSteer
 from wheelgym.models.three_wheel import ThreeWheel
+
+_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _friction.__file__,
+             _integrators.__file__)
 
 __all__ = [
     "TwistGains",
@@ -216,8 +223,8 @@ def _tw_twist_one(x, cmd, p, tmax, kv, dt, mode, tau):  # pragma: no cover - com
     e2 = cmd[2] - x[5]
     ud0, ud1, ud2 = kv * e0, kv * e1, kv * e2
     _tw_force(x, ud0, ud1, ud2, x[3] + ud0 * dt, x[4] + ud1 * dt, x[5] + ud2 * dt, p, J, Q)
-    _distribute_one(J, Q, tmax, mode, tau)
-    return _saturate(tau, tmax)
+    status = _distribute_one(J, Q, tmax, mode, tau)
+    return _saturate(tau, tmax) or status < 0
 
 
 @njit(cache=True)
@@ -245,8 +252,8 @@ def _tw_track_one(x, pose, tw, rate, p, tmax, kp, kd, dt, mode, tau):  # pragma:
     J = np.empty((6, 3))
     Q = np.empty(3)
     _tw_force(x, ud0, ud1, ud2, vx + ud0 * dt, vy + ud1 * dt, wz + ud2 * dt, p, J, Q)
-    _distribute_one(J, Q, tmax, mode, tau)
-    return _saturate(tau, tmax)
+    status = _distribute_one(J, Q, tmax, mode, tau)
+    return _saturate(tau, tmax) or status < 0
 
 
 @njit(cache=True)
@@ -344,6 +351,53 @@ def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
     for n in range(X.shape[0]):
         _tw_force(X[n], UD[n, 0], UD[n, 1], UD[n, 2], UF[n, 0], UF[n, 1], UF[n, 2], p, J[n],
                   Q[n])
+
+
+@njit(cache=True, inline="always")
+def _finite1(a, n):  # pragma: no cover - compiled
+    """True when ``a`` has length ``n`` and every entry is finite."""
+    if a.shape[0] != n:
+        return False
+    for i in range(n):
+        if not np.isfinite(a[i]):
+            return False
+    return True
+
+
+# Single-state entry points (the fast path of ``torques``): check sizes and finiteness inside
+# the compiled code and return 1 (saturated), 0 (not), or -1 (bad input).
+@njit(cache=True)
+def _one_tw_twist(x, c, p, tmax, kv, dt, mode, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 12) and _finite1(c, 3)):
+        return -1
+    return 1 if _tw_twist_one(x, c, p, tmax, kv, dt, mode, tau) else 0
+
+
+@njit(cache=True)
+def _one_tw_track(x, P, T, R, p, tmax, kp, kd, dt, mode, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 12) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
+        return -1
+    return 1 if _tw_track_one(x, P, T, R, p, tmax, kp, kd, dt, mode, tau) else 0
+
+
+@njit(cache=True)
+def _one_ss_twist(x, c, p, tmax, frac, kv, dt, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 5) and _finite1(c, 2)):
+        return -1
+    return 1 if _ss_twist_one(x, c, p, tmax, frac, kv, dt, tau) else 0
+
+
+@njit(cache=True)
+def _one_ss_track(x, P, T, R, p, tmax, frac, gains, dt, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 5) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
+        return -1
+    return 1 if _ss_track_one(x, P, T, R, p, tmax, frac, gains, dt, tau) else 0
+
+
+def _is_vec(a: Any) -> bool:
+    """A 1-D C-contiguous float64 array (eligible for the single-state fast path)."""
+    return (type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64
+            and a.flags.c_contiguous)
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -449,6 +503,7 @@ class _Controller:
             self._frac = np.array([rear, rear_r])
             self._tmax = np.full(4, float(model.params.tau_max))
         self.distribution = distribution
+        self._tw = isinstance(model, ThreeWheel)
         self._t: np.ndarray | float = 0.0
 
     def _gains_for(self, model: Any) -> type:
@@ -490,6 +545,17 @@ class TwistController(_Controller):
         Returns:
             ``(tau, saturated)``: ``(..., m)`` N·m within the limits, and ``(...,)`` bool.
         """
+        if _is_vec(x) and _is_vec(twist_cmd):
+            tau = np.empty(self.model.input_dim)
+            g = self.gains
+            if self._tw:
+                st = _one_tw_twist(x, twist_cmd, self._p, self._tmax, g.k_v, g.ctrl_dt,
+                                   self._mode, tau)
+            else:
+                st = _one_ss_twist(x, twist_cmd, self._p, self._tmax, self._frac, g.k_v,
+                                   g.ctrl_dt, tau)
+            if st >= 0:
+                return tau, np.bool_(st == 1)
         X = _batch(x, self.model.state_dim, "x")
         C = _batch(twist_cmd, self.command_dim, "twist_cmd")
         (X2, C2), lead = _flat([X, C])
@@ -497,7 +563,7 @@ class TwistController(_Controller):
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
         g = self.gains
-        if isinstance(self.model, ThreeWheel):
+        if self._tw:
             _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
         else:
             _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out, sat)
@@ -540,6 +606,9 @@ class TrackingController(_Controller):
         if trajectory is not None and not hasattr(trajectory, "evaluate"):
             raise TypeError("trajectory must have an evaluate(t) method (a Reference)")
         self.trajectory = trajectory
+        if not self._tw:
+            g = self.gains
+            self._gv = np.array([g.k_x, g.k_y, g.k_yaw, g.k_v, g.k_w_max])
 
     def _gains_for(self, model: Any) -> type:
         return TrackingGains if isinstance(model, ThreeWheel) else UnicycleTrackingGains
@@ -551,6 +620,17 @@ class TrackingController(_Controller):
         ``ref_pose`` ``(..., 3)`` world (x, y, yaw); ``ref_twist`` and ``ref_twist_rate``
         ``(..., 3)`` in the reference's body frame (as :meth:`Reference.evaluate` returns).
         """
+        if _is_vec(x) and _is_vec(ref_pose) and _is_vec(ref_twist) and _is_vec(ref_twist_rate):
+            tau = np.empty(self.model.input_dim)
+            g = self.gains
+            if self._tw:
+                st = _one_tw_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
+                                   g.k_p, g.k_d, g.ctrl_dt, self._mode, tau)
+            else:
+                st = _one_ss_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
+                                   self._frac, self._gv, g.ctrl_dt, tau)
+            if st >= 0:
+                return tau, np.bool_(st == 1)
         X = _batch(x, self.model.state_dim, "x")
         P = _batch(ref_pose, 3, "ref_pose")
         T = _batch(ref_twist, 3, "ref_twist")
@@ -560,13 +640,12 @@ class TrackingController(_Controller):
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
         g = self.gains
-        if isinstance(self.model, ThreeWheel):
+        if self._tw:
             _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
                         self._mode, out, sat)
         else:
-            gv = np.array([g.k_x, g.k_y, g.k_yaw, g.k_v, g.k_w_max])
-            _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, gv, g.ctrl_dt, out,
-                        sat)
+            _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, self._gv, g.ctrl_dt,
+                        out, sat)
         return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
 
     def act(self, state: Any, reference: Any) -> np.ndarray:

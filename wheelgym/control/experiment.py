@@ -20,13 +20,21 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from wheelgym import integrators as _integrators
+from wheelgym.control import _cache
+from wheelgym.control import controllers as _controllers
+from wheelgym.control import distribution as _distribution
 from wheelgym.control.controllers import _tw_force
 from wheelgym.control.distribution import _wls_one
+from wheelgym.models import friction as _friction
 from wheelgym.models import three_wheel as _tw
 from wheelgym.models.three_wheel import ThreeWheel
 from wheelgym.tasks.references import QuinticCircle
 
 __all__ = ["paper_experiment"]
+
+_cache.guard(__file__, _controllers.__file__, _distribution.__file__, _tw.__file__,
+             _friction.__file__, _integrators.__file__)
 
 
 @njit(cache=True)
