@@ -53,7 +53,7 @@ def _input_bounds(params: CasterAGVParams, mode: str) -> tuple[np.ndarray, np.nd
 def _initial_state(pose: np.ndarray, params: CasterAGVParams) -> np.ndarray:
     X = np.zeros((pose.shape[0], 9))
     X[:, :3] = pose
-    X[:, 5] = math.pi  # front caster trailing its axis for forward travel
+    X[:, 5] = 0.0  # sigma = 0: wheel centre a - d e behind its axis, trailing for forward travel
     return X
 
 
