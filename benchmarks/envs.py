@@ -51,6 +51,37 @@ def time_steps(env: gym.Env, n: int, repeats: int, seed: int = 0) -> float:
     return statistics.median(out)
 
 
+def bench_rays(n: int = 2000) -> None:
+    """16 range rays in one navigate arena: pymunk segment queries vs the compiled kernel."""
+    from wheelgym.world import Arena, build_space, k_ranges, pymunk_ranges
+
+    arena = Arena()
+    w = arena.generate(np.random.default_rng(0), 0.4)
+    space = build_space(w)
+    C = np.zeros((1, arena.max_circles, 3))
+    S = np.zeros((1, arena.max_segments, 4))
+    C[0, : len(w.circles)] = w.circles
+    S[0, : len(w.segments)] = w.segments
+    nc, ns = np.array([len(w.circles)]), np.array([len(w.segments)])
+    pose = w.start[None].copy()
+    out = np.zeros((1, 16))
+    k_ranges(pose, C, nc, S, ns, 3.0, out)
+
+    def tm(f) -> float:
+        res = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                f()
+            res.append((time.perf_counter() - t0) / n)
+        return statistics.median(res)
+
+    t_pm = tm(lambda: pymunk_ranges(space, pose[0], 16, 3.0, out[0]))
+    t_nb = tm(lambda: k_ranges(pose, C, nc, S, ns, 3.0, out))
+    print(f"16 range rays: pymunk segment queries {t_pm * 1e6:.1f} us, "
+          f"analytic numba kernel {t_nb * 1e6:.1f} us ({t_pm / t_nb:.0f}x)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=3000)
@@ -86,6 +117,8 @@ def main() -> None:
                 t = time_steps(env, args.steps, args.repeats)
                 print(f"| {env_id(robot)} | navigate, rays: {backend} | torque | {t * 1e6:.1f} "
                       f"| {1 / t:,.0f} | {t_ref / t:.2f}x | |")
+    print()
+    bench_rays()
     print()
     for robot in robots:
         times = []

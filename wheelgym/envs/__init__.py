@@ -19,15 +19,10 @@ class SkidSteerEnv(WheelEnv):
     front-left, front-right, rear-right]. ``velocity``: ``(vx, wz) = a * (1.0 m/s, 2.0 rad/s)``
     tracked by :class:`wheelgym.control.TwistController` (shape ``(2,)``).
 
-    ## Observation Space
-    Task table in the module notes below; the robot adds no features (``vy = -x_icr wz``).
-
-    ## Starting State, Episode End, Rewards
-    See the task notes. Speed limits: 2.5 m/s, 5 rad/s.
-
-    ## Version History
-    * v0: initial version.
-    """ + _DOC
+    Robot features: none (``vy = -x_icr wz`` is part of the twist). Speed limits: 2.5 m/s,
+    5 rad/s. ``randomize`` groups: mass, inertia, friction, x_icr (absolute, m), wheel_radius,
+    torque_limit.
+    """
 
     robot = "SkidSteer"
 
@@ -44,23 +39,29 @@ class ThreeWheelEnv(WheelEnv):
     [drive_1..3, steer_1..3]. ``velocity``: ``Box(-1, 1, (3,))``, ``(vx, vy, wz) = a * (1.0,
     1.0, 2.0)`` (m/s, m/s, rad/s) tracked by :class:`wheelgym.control.TwistController`.
 
-    ## Observation Space
-    Task table below, plus 6 features: cos psi_1..3, sin psi_1..3 (steering angles).
-
-    ## Starting State, Episode End, Rewards
-    See the task notes. Speed limits: 2.0 m/s, 4 rad/s. ``internal_force`` is the norm of
-    the null-space component of the motor torques, ``(I - J (J^T J)^-1 J^T) tau`` (TW-6, the
-    three-wheel paper (36)): torques that push the motors against each other.
-
-    ## Version History
-    * v0: initial version.
-    """ + _DOC
+    Robot features: cos psi_1..3, sin psi_1..3 (steering angles, -). Speed limits: 2.0 m/s,
+    4 rad/s. ``internal_force`` is the norm of the null-space component of the motor torques,
+    ``(I - J (J^T J)^-1 J^T) tau`` (TW-6, three-wheel paper (36)): torques that push the motors
+    against each other through the ground. ``randomize`` groups: mass, inertia, friction,
+    wheel_radius, caster_trail, torque_limit.
+    """
 
     robot = "ThreeWheel"
 
 
 class CasterAGVEnv(WheelEnv):
-    """Differential-drive AGV with a passive trailing caster (physics.md section 5).""" + _DOC
+    """Differential-drive AGV with a passive trailing caster (physics.md section 5).
+
+    ## Description
+    A 23 kg platform on two driven wheels and a passive front caster whose swivel angle is a
+    state (body origin at the axle midpoint).
+
+    ## Action Space
+    ``torque`` only: ``Box(-1, 1, (2,))``, ``tau = a * 6 N·m`` (left, right). (No twist
+    controller exists for this robot yet.)
+
+    Robot features: cos sigma, sin sigma (caster swivel angle). Speed limits: 2.0 m/s, 5 rad/s.
+    """
 
     robot = "CasterAGV"
 
@@ -72,27 +73,32 @@ class DiffDriveEnv(WheelEnv):
     ``Box(-1, 1, (2,))`` mapped onto the input mode's bounds: ``WheelSpeeds`` (phidot_L,
     phidot_R in rad/s, default) or ``VehicleSpeedHeadingRate`` (v m/s, w rad/s).
     No motors: ``motor_torque`` and ``joint_velocity`` are empty and ``energy`` stays 0.
-    """ + _DOC
+    """
 
     robot = "DiffDrive"
 
 
 class UnicycleEnv(WheelEnv):
     """Kinematic unicycle (physics.md section 4); action modes ``WheelSpeedHeadingRate``
-    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds.""" + _DOC
+    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds."""
 
     robot = "Unicycle"
 
 
 class BicycleEnv(WheelEnv):
     """Kinematic bicycle (physics.md section 4); action modes ``VehicleSpeedSteeringAngle``
-    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds.""" + _DOC
+    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds."""
 
     robot = "Bicycle"
 
 
 class AckermannEnv(WheelEnv):
     """Kinematic Ackermann car (physics.md section 4); action ``(v, psidot)`` scaled onto the
-    model's bounds; the steering angle is an extra feature (cos, sin).""" + _DOC
+    model's bounds; the steering angle is an extra feature (cos, sin)."""
 
     robot = "Ackermann"
+
+
+for _cls in (SkidSteerEnv, ThreeWheelEnv, CasterAGVEnv, DiffDriveEnv, UnicycleEnv, BicycleEnv,
+             AckermannEnv):
+    _cls.__doc__ = (_cls.__doc__ or "") + _DOC

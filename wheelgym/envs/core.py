@@ -123,6 +123,7 @@ class WheelCore:
             # deadbeat twist loop at this control period (controllers.py module docstring)
             self.controller = TwistController(
                 self.model, gains={"k_v": 1.0 / self.dt, "ctrl_dt": self.dt})
+            self._bind_controller()
         else:
             self.action_dim = spec.n_motor
         m = self.model.input_dim
@@ -181,6 +182,26 @@ class WheelCore:
             "internal_force": self.xf, "saturated": self.sat, "is_success": self.succ,
             "ok": self.ok, "terms": self.terms,
         }
+
+    def _bind_controller(self) -> None:
+        """The controller's compiled batch kernel and its arguments (its ``torques`` method
+        without the per-call Python checks, which cost ~20x the kernel at N = 1)."""
+        from wheelgym.control import controllers as C
+        from wheelgym.models.three_wheel import ThreeWheel
+
+        ctl = self.controller
+        g = ctl.gains
+        if isinstance(self.model, ThreeWheel):
+            self._ctl_kernel = C._k_tw_twist
+            self._ctl_args = (ctl._p, ctl._tmax, g.k_v, g.ctrl_dt, ctl._mode)
+        else:
+            self._ctl_kernel = C._k_ss_twist
+            self._ctl_args = (ctl._p, ctl._tmax, ctl._frac, g.k_v, g.ctrl_dt)
+        N = self.num
+        self._cmd = np.zeros((N, self.action_dim))
+        self._tau = np.zeros((N, self.model.input_dim))
+        self._anorm = np.zeros((N, self.model.input_dim))
+        self._csat = np.zeros(N, dtype=np.bool_)
 
     # ------------------------------------------------------------------ validation
     def _check_randomize(self, randomize) -> dict[str, tuple[float, float]]:
@@ -328,23 +349,24 @@ class WheelCore:
             a = np.asarray(actions, dtype=np.float64)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
-        if self._track:
-            self.task.advance()
         if self._velocity:
-            if not np.all(np.isfinite(a)):
+            if not np.isfinite(a).all():  # the clip below would hide an inf
                 raise ValueError("action must be finite (got NaN or inf)")
-            cmd = np.clip(a, -1.0, 1.0) * self.twist_max
-            tau, csat = self.controller.torques(self.X, cmd)
-            A = tau / self.HI
+            np.clip(a, -1.0, 1.0, out=self._cmd)
+            self._cmd *= self.twist_max
+            self._ctl_kernel(self.X, self._cmd, *self._ctl_args, self._tau, self._csat)
+            A = np.divide(self._tau, self.HI, out=self._anorm)
         else:
             A = a
         if not self.spec.k_env_step(self.X, A, self.LO, self.HI, self.P, self.h, self.n_sub,
                                     self.Xo, self.U, self.jv, self.energy, self.eff, self.pose,
                                     self.twist, self.feat, self.xf, self.sat, self.ok):
             raise ValueError("action must be finite (got NaN or inf)")
+        if self._track:
+            self.task.advance()
         if self._velocity:
-            self.sat |= np.asarray(csat, dtype=np.bool_).reshape(self.num) | \
-                np.any(np.abs(a) > 1.0, axis=1)
+            self.sat |= self._csat
+            self.sat |= np.any(np.abs(a) > 1.0, axis=1)
         self.X, self.Xo = self.Xo, self.X
         self.steps += 1
         self.task.evaluate()

@@ -15,88 +15,105 @@ from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 __all__ = ["WheelEnv"]
 
 _DOC = """
-## Arguments (all robots)
+## Observation Space
 
-| argument | default | meaning |
-|------------------|------------------------|---------------------------------------------------------------|
-| task | "goal" | "goal", "track" or "navigate" |
-| action_mode | first of the robot's | "torque", "velocity" (dynamic); input modes (kinematic)|
-| params | None | dict of parameter overrides (names of the robot's Params) |
-| ctrl_dt, sim_dt | model defaults | control period and RK4 substep (s); must divide |
-| randomize | None | dict group -> range, or True for the defaults (below) |
-| obs_noise | 0.0 | std of Gaussian noise added to each observation entry |
-| reward_weights | task defaults | dict term -> weight; unknown keys raise listing valid ones |
-| render_mode | None | "rgb_array" or "human" |
-| range_backend | "analytic" | navigate's range sensor: "analytic" (compiled) or "pymunk" |
+float32 ``Box`` with finite bounds; angles enter as cos/sin; positions are in the robot's body
+frame B (x forward, y left, physics.md section 0) and clipped to +-12 m; speeds to twice the
+sanity limits. Layout by task (the robot's features, listed above, come after the twist):
 
-`randomize` groups (each robot supports those its parameters have): "mass", "inertia",
+| task     | entries (in order)                                                   | unit        |
+|----------|----------------------------------------------------------------------|-------------|
+| goal     | goal_x_b, goal_y_b                                                   | m           |
+|          | cos_dyaw, sin_dyaw (goal yaw minus yaw)                              | -           |
+|          | vx, vy, wz (body twist); robot features                              | m/s, rad/s  |
+| track    | ref_x_b, ref_y_b (reference position now)                            | m           |
+|          | cos_dyaw, sin_dyaw; ref_vx, ref_vy, ref_wz (reference twist)         | -, m/s, rad/s|
+|          | preview_{10,20,30}_{x,y}_b (reference 0.5, 1.0, 1.5 s ahead)         | m           |
+|          | vx, vy, wz; robot features                                           | m/s, rad/s  |
+| navigate | as goal, then range_0..range_15 (rays at yaw + 2 pi k / 16, 0-3 m)   | m           |
+
+## Rewards
+
+Named terms, each weighted (``reward_weights`` overrides; unknown keys raise listing the valid
+ones); ``info["reward_terms"]`` holds the weighted terms and they add up to the reward.
+
+| term           | task            | value (before the weight)                       | weight |
+|----------------|-----------------|--------------------------------------------------|--------|
+| progress       | goal, navigate  | decrease of the distance to the goal this step (m)| 1.0   |
+| heading        | goal (navigate) | -abs(dyaw) / pi                                  | 0.02 (0) |
+| position       | track           | -distance to the reference (m)                   | 1.0    |
+| heading        | track           | -abs(dyaw) / pi                                  | 0.1    |
+| effort         | all             | -mean((tau / tau_max)^2) (normalised commands)   | 0.01   |
+| internal_force | all (ThreeWheel)| -norm of the torques' null-space part (N·m)      | 0.01   |
+| success        | goal, navigate  | +1 on success                                    | 10     |
+| overspeed      | all             | -1 beyond the speed limits or on numerical failure | 10   |
+| collision      | navigate        | -1 when the footprint circle touches an obstacle | 10     |
+| lost           | track           | -1 when more than 1 m from the reference         | 10     |
+
+## Starting State
+
+Row i of every draw comes from ``np_random`` (seeded by ``reset(seed=...)``), in a fixed order:
+the randomised parameters, then the task. goal: start at rest within 1 m of the origin with a
+random heading, goal 1-3 m away with a random heading. track: a random reference (circle of
+radius 0.8-2 m, figure-eight of size 1-2 m, or the three-wheel paper's quintic circle), random
+speed, phase, rotation and offset; the robot starts at rest on its first pose. navigate: an
+8 m x 8 m walled arena with 3-6 circles and 1-3 boxes, start and goal (>= 3 m apart) clear of
+them, the pymunk space rebuilt at each reset.
+
+## Episode End
+
+Terminated on success (goal: within 0.1 m and 0.2 rad; navigate: within 0.25 m), overspeed
+(the models have no motor back-EMF, so speed is capped by this sanity limit), lost (track),
+collision (navigate), or a non-finite state (``info["numerical_failure"] = True``; the
+observation then shows the last finite state). Truncated after ``max_episode_steps`` = 500
+control steps (25 s at the default ``ctrl_dt``).
+
+## Arguments
+
+| argument       | default           | meaning                                                 |
+|----------------|-------------------|---------------------------------------------------------|
+| task           | "goal"            | "goal", "track" or "navigate"                           |
+| action_mode    | the robot's first | "torque" or "velocity"; kinematic robots: input modes   |
+| params         | None              | dict of overrides (field names of the robot's Params)   |
+| ctrl_dt        | model default     | control period (s), 0.05                                |
+| sim_dt         | model default     | RK4 substep (s); must divide ctrl_dt                    |
+| randomize      | None              | dict group -> range, or True for the robot's defaults   |
+| obs_noise      | 0.0               | std of Gaussian noise on each observation entry         |
+| reward_weights | task defaults     | dict term -> weight                                     |
+| render_mode    | None              | "rgb_array" (600 x 600 x 3) or "human"                  |
+| range_backend  | "analytic"        | navigate's rays: "analytic" (compiled) or "pymunk"      |
+
+``randomize`` groups (each robot supports those its parameters have): "mass", "inertia",
 "friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit". A value is a relative
-factor range ``(low, high)`` (or a fraction f meaning ``(1 - f, 1 + f)``) multiplying the
-parameters of the group, except ``x_icr`` which takes an absolute range in metres. Draws
-come from ``np_random`` at each reset, in a fixed order; ``reset`` returns them in
-``info["params"]``.
+factor range ``(low, high)`` (or a fraction f meaning ``(1 - f, 1 + f)``) multiplying every
+parameter of the group; ``x_icr`` takes an absolute range (m). ``reset`` returns the draws in
+``info["params"]``. The velocity mode's controller keeps the nominal parameters.
 
-## Tasks, observations and rewards
-
-Observations are float32 with finite bounds; angles enter as cos/sin; positions are in the
-robot's body frame B (x forward, y left) and clipped to +-12 m; speeds to twice the
-sanity limits. Every observation ends with the body twist and the robot's features:
-
-| entries            | unit           | meaning                                               |
-|--------------------|----------------|-------------------------------------------------------|
-| vx, vy, wz         | m/s, m/s, rad/s| body twist (physics.md section 0)                     |
-| robot features     | see robot      | e.g. cos/sin of ThreeWheel's steering angles          |
-
-**goal** (success: within 0.1 m and 0.2 rad of a goal 1-3 m from a random start; terminates):
-obs = [goal_x_b, goal_y_b (m), cos_dyaw, sin_dyaw, twist, features].
-Reward terms: progress = w (d_prev - d) (distance decrease, m), heading = -w |dyaw| / pi,
-effort = -w mean((tau/tau_max)^2), internal_force = -w |tau_null| (N·m, ThreeWheel only),
-success = +w on success, overspeed = -w when the speed limit is exceeded (terminates).
-Defaults w = 1, 0.02, 0.01, 0.01, 10, 10.
-
-**track** (reference: circle, figure-eight or the paper's quintic circle, random size, speed,
-phase and placement; the robot starts on it): obs = [ref_x_b, ref_y_b (m), cos_dyaw,
-sin_dyaw, ref_vx, ref_vy (m/s), ref_wz (rad/s), preview points at +0.5, 1.0, 1.5 s in B (m),
-twist, features]. Terms: position = -w |e| (m), heading = -w |dyaw| / pi, effort,
-internal_force, overspeed, lost = -w when |e| > 1 m (terminates). Defaults 1, 0.1, 0.01,
-0.01, 10, 10. ``is_success`` holds while |e| < 5 cm.
-
-**navigate** (8 m x 8 m arena, 3-6 circles and 1-3 boxes, goal >= 3 m away, success within
-0.25 m): obs = goal's + 16 range readings (m, 0-3, rays at yaw + 2 pi k / 16). Terms as goal
-(heading weight 0) plus collision = -w (robot circle touches an obstacle; terminates).
-
-Every term is in ``info["reward_terms"]`` (weighted) and they add up to the reward.
-
-## Episode end
-
-Terminated on success (goal, navigate), overspeed (|v| > v_max or |wz| > w_max: the models
-have no motor back-EMF, so speed would grow without bound), lost (track), collision
-(navigate), or a non-finite state (``info["numerical_failure"] = True``; the observation
-then shows the last finite state). Truncated after ``max_episode_steps`` = 500 (25 s).
+Actions outside [-1, 1] are clipped (``info["saturated"]``); a wrong shape or a non-finite
+entry raises ``ValueError``; invalid keyword values raise ``ValueError``/``TypeError`` naming
+the argument and listing the valid choices.
 
 ## Info (every step)
 
-| key              | unit      | meaning                                                       |
-|------------------|-----------|---------------------------------------------------------------|
-| pose             | m, m, rad | (x, y, yaw) in W (yaw unwrapped)                              |
-| twist            | m/s, rad/s| (vx, vy, wz) in B                                             |
-| motor_torque     | N·m       | applied motor torques (after clipping); empty for kinematic   |
-| joint_velocity   | rad/s     | motor joint rates at the end of the step                      |
-| tracking_error   | m         | distance to the goal (goal, navigate) or the reference (track)|
-| energy           | J         | cumulative motor work, integral of tau . qdot                 |
-| internal_force   | N·m       | norm of the torques' null-space component (ThreeWheel; else 0)|
-| saturated        | bool      | an action or controller torque was clipped                    |
-| is_success       | bool      | see the tasks                                                 |
-| reward_terms     | dict      | weighted reward terms                                         |
-| numerical_failure| bool      | the state turned non-finite (the episode ends)                |
+| key               | unit       | meaning                                                      |
+|-------------------|------------|--------------------------------------------------------------|
+| pose              | m, m, rad  | (x, y, yaw) in W (yaw unwrapped)                             |
+| twist             | m/s, rad/s | (vx, vy, wz) in B                                            |
+| motor_torque      | N·m        | applied motor torques after clipping (empty: kinematic)      |
+| joint_velocity    | rad/s      | motor joint rates at the end of the step (empty: kinematic)  |
+| tracking_error    | m          | distance to the goal or to the reference                     |
+| energy            | J          | cumulative motor work, RK4 integral of tau . qdot            |
+| internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0)    |
+| saturated         | bool       | an action or a controller torque was clipped                 |
+| is_success        | bool       | goal reached; track: within 5 cm of the reference            |
+| numerical_failure | bool       | the state turned non-finite (the episode ends)               |
+| reward_terms      | dict       | weighted reward terms                                        |
 
-Reset info: ``params`` (drawn parameter values), ``task`` details.
+Reset info adds ``params`` (drawn values) and ``task`` (goal pose or reference kind).
 
-## Bad input
+## Version History
 
-An action of the wrong shape or with a non-finite entry raises ``ValueError``; entries outside
-[-1, 1] are clipped (``saturated`` is set). Invalid keyword values raise ``ValueError`` or
-``TypeError`` naming the argument and listing the valid choices.
+* v0: initial version.
 """
 
 
