@@ -403,6 +403,24 @@ def test_batched_equals_one_by_one():
     assert model.jacobian(psi.reshape(2, 500, 3)).shape == (2, 500, 6, 3)
 
 
+def test_fast_sincos_and_atan_match_libm():
+    """The kernel's own sin/cos agree with libm to 2 ulp (near their zeros to 1e-31 |x|, the
+    accuracy of the three-part pi/2), arctan to 1 ulp."""
+    from wheelgym.models.three_wheel import _atan, _sgn_s, _sincos
+
+    rng = np.random.default_rng(5)
+    xs = np.concatenate([rng.normal(size=2000) * s for s in (1e-3, 1.0, 4.0, 100.0, 1e5)])
+    xs = np.concatenate([xs, [0.0, -0.0, math.pi / 4, math.pi / 2, math.pi, 1e8, -1e8]])
+    for x in xs:
+        s, c = _sincos(x)
+        floor = 1e-31 * max(1.0, abs(x))
+        assert abs(s - math.sin(x)) <= 2 * np.spacing(abs(math.sin(x))) + floor
+        assert abs(c - math.cos(x)) <= 2 * np.spacing(abs(math.cos(x))) + floor
+    for x in np.concatenate([xs * 10.0, [1e300, -1e300, math.inf, -math.inf]]):
+        assert abs(_atan(x) - math.atan(x)) <= np.spacing(abs(math.atan(x))) + 1e-300
+        assert _sgn_s(x, 100.0) == pytest.approx((2 / math.pi) * math.atan(100.0 * x), rel=1e-15)
+
+
 def test_pieces_satisfy_their_definitions():
     """J rows, loads balance, derivative = M^-1 (J^T tau + Q_f - c), powers, wheel centres."""
     model = ThreeWheel()
