@@ -14,17 +14,20 @@ from wheelgym.control import (
     within_limits,
 )
 from wheelgym.integrators import rk4
-from wheelgym.models import SkidSteer, ThreeWheel
+from wheelgym.models import CasterAGV, SkidSteer, ThreeWheel
 from wheelgym.tasks.references import Circle, FigureEight
 
 TW_SCALED = ("m_b", "I_b", "m_w", "I_wy", "I_wz", "mu_r", "mu_p", "b_drive", "b_steer")
 SS_SCALED = ("m", "I", "mu_s", "mu_l")
+CA_SCALED = ("m_b", "I_b", "m_w", "I_wy", "I_wz", "m_c", "I_cy", "I_cz", "mu_r", "mu_p",
+             "b_drive", "b_caster")
+SCALED = {ThreeWheel: TW_SCALED, SkidSteer: SS_SCALED, CasterAGV: CA_SCALED}
 
 
 def scaled(model_cls, factor):
     """Plant with every mass, inertia and friction parameter scaled by ``factor``."""
     p = model_cls().params
-    names = TW_SCALED if model_cls is ThreeWheel else SS_SCALED
+    names = SCALED[model_cls]
     return model_cls(p.replace(**{n: getattr(p, n) * factor for n in names}))
 
 
@@ -125,11 +128,13 @@ def test_three_wheel_twist_mode_reaches_command(cmd):
     assert t <= 0.2, t  # measured: 0.05-0.15 s to within 2% (0.05-0.12 s to 5%)
 
 
+@pytest.mark.parametrize("model_cls", [SkidSteer, CasterAGV])
 @pytest.mark.parametrize("cmd", [(0.5, 0.0), (1.0, 0.0), (0.0, 1.0), (0.5, 0.5)])
-def test_skid_steer_twist_mode_reaches_command(cmd):
-    model = SkidSteer()
-    t = _reach_time(model, TwistController(model), np.zeros(5), np.array(cmd), [3, 4])
-    assert t <= 0.2, t
+def test_unicycle_twist_mode_reaches_command(model_cls, cmd):
+    model = model_cls()
+    x0 = np.zeros(model.state_dim)
+    t = _reach_time(model, TwistController(model), x0, np.array(cmd), [3, 4])
+    assert t <= 0.2, t  # measured 0.05-0.12 s to within 2%
 
 
 def _start_state(model, ref):
@@ -139,6 +144,12 @@ def _start_state(model, ref):
         x[:3], x[3:6] = pose, tw
         a = model.params.axes_array  # wheels rolling along their axis' velocity
         x[6:9] = np.arctan2(tw[1] + tw[2] * a[:, 0], tw[0] - tw[2] * a[:, 1])
+        return x
+    if isinstance(model, CasterAGV):
+        x = np.zeros(9)
+        x[:3], x[3], x[4] = pose, tw[0], tw[2]
+        a = np.asarray(model.params.caster_axis)  # caster rolling along its axis' velocity
+        x[5] = np.arctan2(tw[2] * a[0], tw[0] - tw[2] * a[1])
         return x
     xi = model.params.x_icr
     return np.array([pose[0] - xi * np.cos(pose[2]), pose[1] - xi * np.sin(pose[2]), pose[2],
@@ -164,7 +175,7 @@ def _track(model_cls, ref, factor):
 REFS = {"circle": Circle(radius=1.0, speed=0.5), "figure_eight": FigureEight(1.0, 20.0)}
 
 
-@pytest.mark.parametrize("model_cls", [ThreeWheel, SkidSteer])
+@pytest.mark.parametrize("model_cls", [ThreeWheel, SkidSteer, CasterAGV])
 @pytest.mark.parametrize("ref", sorted(REFS))
 def test_closed_loop_tracking(model_cls, ref):
     """RMS position error over one lap: < 1 cm exact, < 5 cm with the plant 20% off."""
@@ -263,6 +274,8 @@ def test_invalid_arguments():
         TwistController(ThreeWheel(), distribution="loads")
     with pytest.raises(ValueError, match="distribution must be one of"):
         TwistController(SkidSteer(), distribution="weighted")
+    with pytest.raises(ValueError, match="distribution must be one of"):
+        TwistController(CasterAGV(), distribution="loads")
     with pytest.raises(TypeError, match="unknown TwistGains"):
         TwistController(ThreeWheel(), gains={"kv": 1.0})
     with pytest.raises(ValueError, match="stable sampled loop"):

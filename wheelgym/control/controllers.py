@@ -45,14 +45,16 @@ from wheelgym import integrators as _integrators
 from wheelgym.control import _cache
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
+from wheelgym.models import caster_agv as _ca
 from wheelgym.models import friction as _friction
 from wheelgym.models import skid_steer as _ss
 from wheelgym.models import three_wheel as _tw
+from wheelgym.models.caster_agv import CasterAGV
 from wheelgym.models.skid_steer import SkidSteer
 from wheelgym.models.three_wheel import ThreeWheel
 
-_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _friction.__file__,
-             _integrators.__file__)
+_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _ca.__file__,
+             _friction.__file__, _integrators.__file__)
 
 __all__ = [
     "TwistGains",
@@ -287,15 +289,12 @@ def _ss_twist_one(x, cmd, p, tmax, frac, kv, dt, tau):  # pragma: no cover - com
     return _saturate(tau, tmax)
 
 
-@njit(cache=True)
-def _ss_track_one(x, pose, tw, rate, p, tmax, frac, gains, dt, tau):  # pragma: no cover
-    """Kanayama's law on the ICR point P (no lateral slip), backstepped into computed torque."""
+@njit(cache=True, inline="always")
+def _unicycle_law(px, py, yaw, v, w, pose, tw, rate, gains):  # pragma: no cover - compiled
+    """Kanayama's law for a point moving like a unicycle (forward speed v, yaw rate w),
+    differentiated for the feedforward; returns the desired ``(vdot, wdot)``."""
     kx, ky, kth, kv, kwmax = gains[0], gains[1], gains[2], gains[3], gains[4]
-    xicr = p[_ss._XICR]
-    yaw, v, w = x[2], x[3], x[4]
     cy, sy = math.cos(yaw), math.sin(yaw)
-    px = x[0] + xicr * cy  # P = CoM + R (x_icr, 0): moves like a unicycle (SS-1)
-    py = x[1] + xicr * sy
     dx, dy = pose[0] - px, pose[1] - py
     ex = cy * dx + sy * dy
     ey = -sy * dx + cy * dy
@@ -315,10 +314,53 @@ def _ss_track_one(x, pose, tw, rate, p, tmax, frac, gains, dt, tau):  # pragma: 
     ethd = wr - w
     vcd = vrd * ct - vr * st * ethd + kx * exd
     wcd = wrd + vrd * (ky * ey + kth * st) + vr * (ky * eyd + kth * ct * ethd)
-    ed0 = vcd + kv * (vc - v)
-    ed1 = wcd + kv * (wc - w)
-    tl, tr = _ss_sides(v, w, ed0, ed1, p, dt)
+    return vcd + kv * (vc - v), wcd + kv * (wc - w)
+
+
+@njit(cache=True)
+def _ss_track_one(x, pose, tw, rate, p, tmax, frac, gains, dt, tau):  # pragma: no cover
+    """Kanayama's law on the ICR point P (no lateral slip), backstepped into computed torque."""
+    xicr = p[_ss._XICR]
+    yaw = x[2]
+    px = x[0] + xicr * math.cos(yaw)  # P = CoM + R (x_icr, 0): moves like a unicycle (SS-1)
+    py = x[1] + xicr * math.sin(yaw)
+    ed0, ed1 = _unicycle_law(px, py, yaw, x[3], x[4], pose, tw, rate, gains)
+    tl, tr = _ss_sides(x[3], x[4], ed0, ed1, p, dt)
     _ss_split(tl, tr, frac, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _ca_sides(x, ed0, ed1, p, dt, tau):  # pragma: no cover - compiled
+    """CasterAGV inverse dynamics: ``Q = M(sigma) udot + c(sigma, u) - Q_f(sigma, u_f)`` and
+    ``(tau_L, tau_R)`` from ``Q = ((tau_L + tau_R), c (tau_R - tau_L)) / r`` (no redundancy)."""
+    v, w = x[3], x[4]
+    cs = math.cos(x[5])
+    sn = math.sin(x[5])
+    gc0, gc1, hc0, hc1 = _ca._gh(cs, sn, p)
+    n_l, n_r, n_c = _ca._loads(cs, sn, p)
+    m00, m01, m11 = _ca._mass(gc0, gc1, hc0, hc1, p)
+    b0, b1 = _ca._bias(gc0, gc1, hc0, hc1, v, w, p)
+    q0, q1 = _ca._friction(gc0, gc1, hc0, hc1, v + ed0 * dt, w + ed1 * dt, n_l, n_r, n_c, p)
+    f0 = m00 * ed0 + m01 * ed1 + b0 - q0
+    f1 = m01 * ed0 + m11 * ed1 + b1 - q1
+    r = p[_ca._R]
+    c = p[_ca._C]
+    tau[0] = 0.5 * r * (f0 - f1 / c)
+    tau[1] = 0.5 * r * (f0 + f1 / c)
+
+
+@njit(cache=True)
+def _ca_twist_one(x, cmd, p, tmax, kv, dt, tau):  # pragma: no cover - compiled
+    _ca_sides(x, kv * (cmd[0] - x[3]), kv * (cmd[1] - x[4]), p, dt, tau)
+    return _saturate(tau, tmax)
+
+
+@njit(cache=True)
+def _ca_track_one(x, pose, tw, rate, p, tmax, gains, dt, tau):  # pragma: no cover - compiled
+    """Kanayama's law on the axle midpoint (the body origin, ``vy = 0``), computed torque."""
+    ed0, ed1 = _unicycle_law(x[0], x[1], x[2], x[3], x[4], pose, tw, rate, gains)
+    _ca_sides(x, ed0, ed1, p, dt, tau)
     return _saturate(tau, tmax)
 
 
@@ -344,6 +386,18 @@ def _k_ss_twist(X, C, p, tmax, frac, kv, dt, out, sat):  # pragma: no cover - co
 def _k_ss_track(X, P, T, R, p, tmax, frac, gains, dt, out, sat):  # pragma: no cover
     for n in range(X.shape[0]):
         sat[n] = _ss_track_one(X[n], P[n], T[n], R[n], p, tmax, frac, gains, dt, out[n])
+
+
+@njit(cache=True)
+def _k_ca_twist(X, C, p, tmax, kv, dt, out, sat):  # pragma: no cover - compiled
+    for n in range(X.shape[0]):
+        sat[n] = _ca_twist_one(X[n], C[n], p, tmax, kv, dt, out[n])
+
+
+@njit(cache=True)
+def _k_ca_track(X, P, T, R, p, tmax, gains, dt, out, sat):  # pragma: no cover - compiled
+    for n in range(X.shape[0]):
+        sat[n] = _ca_track_one(X[n], P[n], T[n], R[n], p, tmax, gains, dt, out[n])
 
 
 @njit(cache=True)
@@ -394,6 +448,20 @@ def _one_ss_track(x, P, T, R, p, tmax, frac, gains, dt, tau):  # pragma: no cove
     return 1 if _ss_track_one(x, P, T, R, p, tmax, frac, gains, dt, tau) else 0
 
 
+@njit(cache=True)
+def _one_ca_twist(x, c, p, tmax, kv, dt, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 9) and _finite1(c, 2)):
+        return -1
+    return 1 if _ca_twist_one(x, c, p, tmax, kv, dt, tau) else 0
+
+
+@njit(cache=True)
+def _one_ca_track(x, P, T, R, p, tmax, gains, dt, tau):  # pragma: no cover - compiled
+    if not (_finite1(x, 9) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
+        return -1
+    return 1 if _ca_track_one(x, P, T, R, p, tmax, gains, dt, tau) else 0
+
+
 def _is_vec(a: Any) -> bool:
     """A 1-D C-contiguous float64 array (eligible for the single-state fast path)."""
     return (type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64
@@ -401,7 +469,7 @@ def _is_vec(a: Any) -> bool:
 
 
 # ---------------------------------------------------------------------------- helpers
-_SUPPORTED = (ThreeWheel, SkidSteer)
+_SUPPORTED = (ThreeWheel, SkidSteer, CasterAGV)
 
 
 def _check_model(model: Any) -> None:
@@ -460,6 +528,7 @@ def tracked_point(model: Any, x: Any) -> np.ndarray:
     ThreeWheel: the centre of mass. SkidSteer: the point ``P`` at ``(x_icr, 0)`` in B, the one
     body point without lateral velocity (SS-1: ``vy + x_icr wz = 0``), which moves like a
     unicycle; the centre of mass cannot keep its velocity along its heading while turning.
+    CasterAGV: its body origin, the axle midpoint (``vy = 0`` there).
     """
     _check_model(model)
     X = _batch(x, model.state_dim, "x")
@@ -489,6 +558,14 @@ class _Controller:
                 )
             self._mode = DISTRIBUTIONS.index(distribution)
             self._tmax = np.ascontiguousarray(model.params.tau_max, dtype=np.float64)
+        elif isinstance(model, CasterAGV):
+            if distribution != "min_norm":
+                raise ValueError(
+                    "distribution must be one of ('min_norm',) for CasterAGV (two motors, two "
+                    f"degrees of freedom: no redundancy), got {distribution!r}"
+                )
+            self._mode = 0
+            self._tmax = np.full(2, float(model.params.tau_max))
         else:
             valid = ("min_norm", "loads")
             if distribution not in valid:
@@ -504,6 +581,7 @@ class _Controller:
             self._tmax = np.full(4, float(model.params.tau_max))
         self.distribution = distribution
         self._tw = isinstance(model, ThreeWheel)
+        self._ca = isinstance(model, CasterAGV)
         self._t: np.ndarray | float = 0.0
 
     def _gains_for(self, model: Any) -> type:
@@ -525,14 +603,17 @@ class _Controller:
 class TwistController(_Controller):
     """Commanded body twist -> motor torques (computed torque, then load distribution).
 
-    Twist command: ``(vx, vy, wz)`` for ThreeWheel, ``(vx, wz)`` for SkidSteer. See the
-    module docstring for the sampled-loop design (deadbeat ``k_v = 1/ctrl_dt``).
+    Twist command: ``(vx, vy, wz)`` for ThreeWheel, ``(vx, wz)`` for SkidSteer and
+    CasterAGV (its ``(v, w)`` of the axle midpoint). See the module docstring for the
+    sampled-loop design (deadbeat ``k_v = 1/ctrl_dt``).
 
     Args:
         model: the controller's model (its parameters may differ from the plant's).
         gains: :class:`TwistGains`, a mapping of its fields, or None.
         distribution: ThreeWheel: ``"min_norm"`` (default), ``"weighted"`` or
-            ``"within_limits"``; SkidSteer: ``"min_norm"`` (equal halves) or ``"loads"``.
+            ``"within_limits"``; SkidSteer: ``"min_norm"`` (equal halves) or ``"loads"``;
+            CasterAGV: ``"min_norm"`` (two motors for two degrees of freedom: the torques are
+            unique).
     """
 
     @property
@@ -551,6 +632,8 @@ class TwistController(_Controller):
             if self._tw:
                 st = _one_tw_twist(x, twist_cmd, self._p, self._tmax, g.k_v, g.ctrl_dt,
                                    self._mode, tau)
+            elif self._ca:
+                st = _one_ca_twist(x, twist_cmd, self._p, self._tmax, g.k_v, g.ctrl_dt, tau)
             else:
                 st = _one_ss_twist(x, twist_cmd, self._p, self._tmax, self._frac, g.k_v,
                                    g.ctrl_dt, tau)
@@ -565,6 +648,8 @@ class TwistController(_Controller):
         g = self.gains
         if self._tw:
             _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
+        elif self._ca:
+            _k_ca_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, out, sat)
         else:
             _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out, sat)
         return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
@@ -591,6 +676,8 @@ class TrackingController(_Controller):
       time derivative fed forward, a twist loop, computed torque through SS-3, then the
       per-side split (SS-4) (:class:`UnicycleTrackingGains`). The reference must have a
       tangent heading (``vy = 0``) and describes that point's motion.
+    * CasterAGV (nonholonomic): the same law on the axle midpoint, computed torque through
+      its ``M(sigma) udot + c - Q_f``, solved exactly for the two drive torques.
 
     Args:
         model: the controller's model.
@@ -626,6 +713,9 @@ class TrackingController(_Controller):
             if self._tw:
                 st = _one_tw_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
                                    g.k_p, g.k_d, g.ctrl_dt, self._mode, tau)
+            elif self._ca:
+                st = _one_ca_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
+                                   self._gv, g.ctrl_dt, tau)
             else:
                 st = _one_ss_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
                                    self._frac, self._gv, g.ctrl_dt, tau)
@@ -643,6 +733,8 @@ class TrackingController(_Controller):
         if self._tw:
             _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
                         self._mode, out, sat)
+        elif self._ca:
+            _k_ca_track(X2, P2, T2, R2, self._p, self._tmax, self._gv, g.ctrl_dt, out, sat)
         else:
             _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, self._gv, g.ctrl_dt,
                         out, sat)
