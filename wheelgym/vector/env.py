@@ -303,32 +303,36 @@ class WheelVectorEnv(VectorEnv):
     def _info(self, rows: np.ndarray, reset: np.ndarray | None) -> dict[str, Any]:
         """The single env's info keys for every row (values from the core's buffers, which
         hold the reset values for rows just reset); ``reset`` rows get zero reward terms and
-        the reset-only keys ``params`` and ``task``."""
+        the reset-only keys ``params`` and ``task``.
+
+        The masks are rows of one block and the reward terms rows of one copy (independent,
+        contiguous arrays to the caller): fewer allocations per step."""
         c = self.core
         nm = self._nmotor
+        nt = len(self._tidx)
+        masks = np.empty((11 + nt, self.num_envs), dtype=np.bool_)
+        masks[:] = rows
         info: dict[str, Any] = {
-            "pose": c.pose.copy(),
-            "twist": c.twist.copy(),
-            "motor_torque": c.U[:, :nm].copy(),
-            "joint_velocity": c.jv[:, :nm].copy(),
-            "tracking_error": c.err.copy(),
-            "energy": c.energy.copy(),
-            "internal_force": c.xf.copy(),
-            "saturated": c.sat.copy(),
-            "is_success": c.succ.copy(),
-            "numerical_failure": ~c.ok,
+            "pose": c.pose.copy(), "_pose": masks[0],
+            "twist": c.twist.copy(), "_twist": masks[1],
+            "motor_torque": c.U[:, :nm].copy(), "_motor_torque": masks[2],
+            "joint_velocity": c.jv[:, :nm].copy(), "_joint_velocity": masks[3],
+            "tracking_error": c.err.copy(), "_tracking_error": masks[4],
+            "energy": c.energy.copy(), "_energy": masks[5],
+            "internal_force": c.xf.copy(), "_internal_force": masks[6],
+            "saturated": c.sat.copy(), "_saturated": masks[7],
+            "is_success": c.succ.copy(), "_is_success": masks[8],
+            "numerical_failure": ~c.ok, "_numerical_failure": masks[9],
         }
-        for k in list(info):
-            info["_" + k] = rows.copy()
+        tv = c.terms.T[self._tidx]  # (n_terms, N), a copy
+        if reset is not None:
+            tv[:, reset] = 0.0
         terms: dict[str, Any] = {}
-        for n, k in zip(self._names, self._tidx, strict=True):
-            col = c.terms[:, k].copy()
-            if reset is not None:
-                col[reset] = 0.0
-            terms[n] = col
-            terms["_" + n] = rows.copy()
+        for j, n in enumerate(self._names):
+            terms[n] = tv[j]
+            terms["_" + n] = masks[11 + j]
         info["reward_terms"] = terms
-        info["_reward_terms"] = rows.copy()
+        info["_reward_terms"] = masks[10]
         if reset is not None and reset.any():
             info.update(self._reset_info(reset))
         return info
