@@ -5,7 +5,7 @@ __version__ = "0.1.0"
 
 def register_envs() -> None:
     """Register the ``wheelgym/<Robot>-v0`` ids (also the ``gymnasium.envs`` entry point)."""
-    from wheelgym.envs.registration import register_envs as _register
+    from wheelgym.registration import register_envs as _register
 
     _register()
 

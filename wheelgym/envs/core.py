@@ -27,13 +27,12 @@ import numpy as np
 
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
 from wheelgym.integrators import n_substeps
+from wheelgym.registration import DEFAULT_HORIZON
 from wheelgym.tasks._kernels import k_noise
 from wheelgym.tasks.tasks import TASKS, NavigateTask, Task, TrackTask
 
 __all__ = ["WheelCore", "DEFAULT_HORIZON"]
 
-#: Default episode length (control steps) of every registered id.
-DEFAULT_HORIZON = 500
 
 
 def _check_dt(name: str, value: Any) -> float:

@@ -44,15 +44,7 @@ def _load(target: str) -> RobotSpec:
 
 
 def available_robots() -> list[str]:
-    """Robots whose models import."""
-    out = []
-    for name, modname in ROBOT_MODULES.items():
-        if name in _cache:
-            out.append(name)
-            continue
-        try:
-            _load(modname)
-        except ImportError:
-            continue
-        out.append(name)
-    return out
+    """Robots whose model files exist (see :func:`wheelgym.registration.available_robots`)."""
+    from wheelgym.registration import available_robots as _available
+
+    return _available()
