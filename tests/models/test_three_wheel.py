@@ -396,6 +396,8 @@ def test_batched_equals_one_by_one():
         assert np.array_equal(c[k], model.bias(psi[k], tw[k]))
         assert np.array_equal(Q[k], model.friction(psi[k], tw[k]))
         assert np.array_equal(N[k], model.normal_loads(psi[k]))
+    Jt, Mt, ct, Qt = model.dynamics_terms(psi, tw)
+    assert all(np.array_equal(a, b) for a, b in ((Jt, J), (Mt, M), (ct, c), (Qt, Q)))
     # leading shapes pass through
     assert model.derivative(X.reshape(10, 100, 12), U.reshape(10, 100, 6)).shape == (10, 100, 12)
     assert np.array_equal(model.derivative(X.reshape(10, 100, 12), U.reshape(10, 100, 6)),
@@ -531,5 +533,12 @@ def test_nonfinite_state_or_input_raises():
             model.step(X, np.zeros((600, 6)), 0.05, 25)
     with pytest.raises(ValueError, match="x"):
         model.step(np.zeros(5), u, 0.05)
+    for piece in (model.jacobian, model.mass_matrix, model.normal_loads, model.wheel_centers):
+        with pytest.raises(ValueError, match="psi"):
+            piece(np.array([0.0, math.nan, 0.0]))
+    with pytest.raises(ValueError, match="u"):
+        model.bias(np.zeros(3), [0.0, math.inf, 0.0])
+    with pytest.raises(ValueError, match="x"):
+        model.kinetic_energy(np.full(12, math.nan))
     with pytest.raises(ValueError, match="dt"):
         model.step(x, u, -0.1)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit, prange
@@ -586,8 +586,14 @@ class ThreeWheel(Model):
     params: ThreeWheelParams
 
     # batching helpers ---------------------------------------------------------------
+    def _finite(self, a: Any, width: int, name: str) -> np.ndarray:
+        arr = self._as_batch(a, width, name)
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} passed to {type(self).__name__} is not finite")
+        return arr
+
     def _psi_pieces(self, psi) -> tuple[np.ndarray, ...]:
-        P = self._as_batch(psi, 3, "psi")
+        P = self._finite(psi, 3, "psi")
         lead = P.shape[:-1]
         P2 = np.ascontiguousarray(P.reshape(-1, 3))
         n = P2.shape[0]
@@ -602,8 +608,8 @@ class ThreeWheel(Model):
                 fjac.reshape(lead + (3, 3)))
 
     def _twist_pieces(self, psi, u) -> tuple[np.ndarray, np.ndarray]:
-        P = self._as_batch(psi, 3, "psi")
-        V = self._as_batch(u, 3, "u")
+        P = self._finite(psi, 3, "psi")
+        V = self._finite(u, 3, "u")
         lead = np.broadcast_shapes(P.shape[:-1], V.shape[:-1])
         P2 = np.ascontiguousarray(np.broadcast_to(P, lead + (3,)).reshape(-1, 3))
         V2 = np.ascontiguousarray(np.broadcast_to(V, lead + (3,)).reshape(-1, 3))
@@ -613,7 +619,7 @@ class ThreeWheel(Model):
         return bias.reshape(lead + (3,)), fric.reshape(lead + (3,))
 
     def _state(self, x) -> np.ndarray:
-        return self._as_batch(x, self.state_dim, "x")
+        return self._finite(x, self.state_dim, "x")
 
     # TW-1 -----------------------------------------------------------------------------
     def jacobian(self, psi) -> np.ndarray:
@@ -649,6 +655,17 @@ class ThreeWheel(Model):
     def friction(self, psi, u) -> np.ndarray:
         """Generalized friction ``Q_f(psi, u)`` of TW-4 (N, N, N·m), shape ``(..., 3)``."""
         return self._twist_pieces(psi, u)[1]
+
+    def dynamics_terms(self, psi, u) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(J, M, c, Q_f)`` of TW-1, TW-3 and TW-4 in one call (for controllers).
+
+        Shapes ``(..., 6, 3)``, ``(..., 3, 3)``, ``(..., 3)``, ``(..., 3)``; ``psi`` and the
+        twist ``u`` broadcast against each other.
+        """
+        c, q = self._twist_pieces(psi, u)
+        P = np.broadcast_to(np.asarray(psi, dtype=np.float64), c.shape)
+        jac, mass = self._psi_pieces(P)[:2]
+        return jac, mass, c, q
 
     def normal_loads(self, psi) -> np.ndarray:
         """Static normal loads ``N_i`` (N) of TW-4 at steering angles ``psi``, ``(..., 3)``."""
