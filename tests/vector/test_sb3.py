@@ -139,3 +139,18 @@ def test_sac_runs_on_64_robots():
     # steps 4, 8 ended every episode: next_obs there is the (normalised) terminal observation
     assert np.all(buf.timeouts[3]) and not np.any(buf.timeouts[2])
     assert not np.allclose(buf.next_observations[3], buf.observations[4])
+
+
+def test_info_keys_subset_gives_last_step_values_at_episode_end():
+    venv = make_sb3_vec_env("wheelgym/ThreeWheel-v0", 3, seed=0, info_keys=("energy", "pose"),
+                            max_episode_steps=3)
+    venv.reset()
+    a = np.full((3, 6), 0.3, dtype=np.float32)
+    energies = []
+    for _ in range(3):
+        _, _, done, infos = venv.step(a)
+        assert all(set(i) >= {"energy", "pose", "TimeLimit.truncated"} for i in infos)
+        energies.append(infos[0]["energy"])
+    assert done.all() and "terminal_observation" in infos[0]
+    assert 0.0 < energies[0] < energies[1] < energies[2]  # the ending step's, not the reset's
+    assert venv.reset_infos[0]["energy"] == 0.0 and "params" in venv.reset_infos[0]
