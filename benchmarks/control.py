@@ -35,7 +35,7 @@ from wheelgym.control import (
     weighted,
     within_limits,
 )
-from wheelgym.models import SkidSteer, ThreeWheel
+from wheelgym.models import CasterAGV, SkidSteer, ThreeWheel
 
 TARGET_TW_STEP_US = 20.0
 
@@ -120,10 +120,15 @@ def main(argv: list[str] | None = None) -> int:
     rate = np.array([0.05, 0.0, 0.01])
     XB_tw = np.broadcast_to(x_tw, (1024, 12)).copy()
     XB_ss = np.broadcast_to(x_ss, (1024, 5)).copy()
+    ca = CasterAGV()
+    x_ca = np.array([0.0, 0.0, 0.0, 0.4, 0.2, 0.1, 0.0, 0.0, 0.0])
+    XB_ca = np.broadcast_to(x_ca, (1024, 9)).copy()
     ctrl = []
     for label, model, x, XB, cmd in (("ThreeWheel", tw, x_tw, XB_tw, np.array([0.4, 0.1, 0.2])),
-                                     ("SkidSteer", ss, x_ss, XB_ss, np.array([0.4, 0.2]))):
-        modes = ("min_norm", "within_limits") if model is tw else ("min_norm", "loads")
+                                     ("SkidSteer", ss, x_ss, XB_ss, np.array([0.4, 0.2])),
+                                     ("CasterAGV", ca, x_ca, XB_ca, np.array([0.4, 0.2]))):
+        modes = {"ThreeWheel": ("min_norm", "within_limits"), "SkidSteer": ("min_norm", "loads"),
+                 "CasterAGV": ("min_norm",)}[label]
         for mode in modes:
             c = TwistController(model, distribution=mode)
             ctrl.append((f"{label} TwistController ({mode})",

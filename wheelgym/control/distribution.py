@@ -386,6 +386,53 @@ def _distribute_one(J, Q, tmax, mode, out):  # pragma: no cover - compiled
     return STATUS_OK
 
 
+@njit(cache=True)
+def _one_distribute(J, Q, T, mode, out):  # pragma: no cover - compiled
+    """Single-configuration entry point: checks shapes and finiteness, then distributes.
+
+    Returns the status, or -9 on a bad input (the caller then takes the checked path).
+    """
+    m, k = J.shape
+    if Q.shape[0] != k or T.shape[0] != m or m < k:
+        return -9
+    for i in range(m):
+        if not (np.isfinite(T[i]) and T[i] > 0.0):
+            return -9
+        for a in range(k):
+            if not np.isfinite(J[i, a]):
+                return -9
+    for a in range(k):
+        if not np.isfinite(Q[a]):
+            return -9
+    return _distribute_one(J, Q, T, mode, out)
+
+
+_ONES: dict[int, np.ndarray] = {}
+
+
+def _fast(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, int] | None:
+    """The compiled single-configuration path, or None when the inputs need the general one."""
+    if not (type(J) is np.ndarray and type(Q) is np.ndarray and J.ndim == 2 and Q.ndim == 1
+            and J.dtype == np.float64 and Q.dtype == np.float64 and J.flags.c_contiguous
+            and Q.flags.c_contiguous):
+        return None
+    m = J.shape[0]
+    if tau_max is None:
+        T = _ONES.get(m)
+        if T is None:
+            T = _ONES.setdefault(m, np.ones(m))
+    elif (type(tau_max) is np.ndarray and tau_max.shape == (m,) and tau_max.dtype == np.float64
+          and tau_max.flags.c_contiguous):
+        T = tau_max
+    else:
+        return None
+    out = np.empty(m)
+    status = _one_distribute(J, Q, T, mode, out)
+    if status == -9 or (mode != 2 and status < 0):
+        return None
+    return out, status
+
+
 # ---------------------------------------------------------------------------- batch kernels
 @njit(cache=True)
 def _k_distribute(J, Q, T, mode, out, status):  # pragma: no cover - compiled
@@ -491,6 +538,9 @@ def _check_tmax(tau_max: Any, m: int, lead: tuple[int, ...]) -> np.ndarray:
 
 
 def _run(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, np.ndarray]:
+    fast = _fast(J, Q, tau_max, mode)
+    if fast is not None:
+        return fast[0], np.asarray(fast[1])
     J2, Q2, lead = _check_JQ(J, Q)
     m = J2.shape[1]
     T2 = _check_tmax(1.0 if tau_max is None else tau_max, m, lead)
