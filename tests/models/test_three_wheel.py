@@ -233,7 +233,9 @@ def test_energy_balance():
 
 
 def test_energy_conserved_without_friction_and_torque():
-    model = ThreeWheel(mu_r=0.0, mu_p=0.0, b_drive=0.0, b_steer=0.0)
+    model = ThreeWheel().frictionless()
+    assert (model.params.mu_r, model.params.mu_p, model.params.b_drive,
+            model.params.b_steer) == (0.0, 0.0, 0.0, 0.0)
     x0 = moving_start()
     sol = solve_ivp(lambda t, x: model.derivative(x, np.zeros(6)), (0.0, 3.0), x0, **TIGHT)
     ke = model.kinetic_energy(sol.y.T)
@@ -303,27 +305,14 @@ def test_rk4_order():
     assert all(12.0 <= r <= 20.0 for r in ratios), (errs, ratios)
 
 
-def manoeuvre(t: float) -> np.ndarray:
-    """5 s from rest: accelerate, turn left, turn right, brake; small steering torques."""
-    if t < 1.5:
-        drive = [0.8, 0.8, 0.8]
-    elif t < 3.0:
-        drive = [0.2, 1.0, 0.6]
-    elif t < 4.0:
-        drive = [1.0, 0.2, 0.6]
-    else:
-        drive = [-0.6, -0.6, -0.6]
-    steer = 0.1 * np.array([math.sin(2 * t), math.sin(2 * t + 1), math.sin(3 * t)])
-    return np.concatenate([drive, steer])
-
-
 def test_default_step_is_stable_and_accurate():
     """stiffness * sim_dt sits >= 20x inside RK4's real stability limit 2.785; the default step's
     error over a 5 s manoeuvre is below 1e-6 of the state's scale against 1/8 of the step.
 
-    The manoeuvre drives forward. Reversing makes pushed casters flip, an unstable motion that
-    amplifies any perturbation at a rate of about |v| / d (tens of 1/s), so there the
-    difference between two step sizes measures that sensitivity rather than RK4's accuracy.
+    The manoeuvre (the model's validation_manoeuvre, from rest) drives forward. Reversing
+    makes pushed casters flip, an unstable motion that amplifies any perturbation at a rate
+    of about |v| / d (tens of 1/s), so there the difference between two step sizes measures
+    that sensitivity rather than RK4's accuracy.
     """
     model = ThreeWheel()
     lam = model.stiffness()
@@ -334,8 +323,9 @@ def test_default_step_is_stable_and_accurate():
     steps = int(round(5.0 / ctrl))
     x = xf = np.zeros(12)
     traj = [x]
+    taus = np.array([model.validation_manoeuvre(k * ctrl) for k in range(steps)])
     for k in range(steps):
-        tau = manoeuvre(k * ctrl)
+        tau = taus[k]
         x = model.step(x, tau, ctrl, n)
         xf = model.step(xf, tau, ctrl, 8 * n)
         traj.append(xf)
@@ -343,6 +333,7 @@ def test_default_step_is_stable_and_accurate():
     scale = np.maximum(1.0, np.max(np.abs(traj), axis=0))
     err = np.max(np.abs(x - xf) / scale)
     assert err < 1e-6, err
+    assert np.all(np.abs(taus) <= model.input_high)
     # the manoeuvre is a real one: over 1.5 m/s, turning both ways, always rolling forward
     assert np.max(traj[:, 3]) > 1.5 and np.min(traj[10:, 3]) > 0.1
     assert np.max(traj[:, 5]) > 0.5 and np.min(traj[:, 5]) < -0.3

@@ -26,7 +26,15 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit, prange
 
-from wheelgym.integrators import all_finite, rk4_inplace
+from wheelgym.integrators import (
+    DERIV1_SIG,
+    STEP1_SIG,
+    all_finite,
+    check_one,
+    check_step_args,
+    finite_status,
+    rk4_inplace,
+)
 from wheelgym.models._base import Model, Params
 
 __all__ = ["ThreeWheelParams", "ThreeWheel", "noc_terms", "RK4_REAL_STABILITY_LIMIT"]
@@ -477,6 +485,28 @@ def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
         _deriv_one(X[i], U[i], p, out[i])
 
 
+@njit(DERIV1_SIG, cache=True)
+def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
+    """Derivative of one state into ``out``; a ``STATUS_*`` code of wheelgym.integrators."""
+    status = check_one(x, u, 12, 6)
+    if status == 0:
+        _deriv_one(x, u, p, out)
+    return status
+
+
+@njit(STEP1_SIG, cache=True)
+def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
+    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
+    status = check_one(x, u, 12, 6)
+    if status == 0:
+        status = check_step_args(dt, n)
+    if status != 0:
+        return status
+    work = np.empty((5, 12))
+    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
+    return finite_status(x)
+
+
 @njit(cache=True)
 def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
@@ -582,6 +612,10 @@ class ThreeWheel(Model):
     _k_deriv = _k_deriv
     _k_step = _k_step
     _k_step_par = _k_step_par
+    _k_step1 = _k_step1
+    _k_deriv1 = _k_deriv1
+
+    friction_params = ("mu_r", "mu_p", "b_drive", "b_steer")
 
     params: ThreeWheelParams
 
@@ -620,6 +654,39 @@ class ThreeWheel(Model):
 
     def _state(self, x) -> np.ndarray:
         return self._finite(x, self.state_dim, "x")
+
+    # validation hooks (wheelgym.validate) ----------------------------------------------
+    @property
+    def input_high(self) -> np.ndarray:
+        """Torque limits in motor order (N·m)."""
+        return self.params.tau_max
+
+    def validation_state(self) -> np.ndarray:
+        """Moving start for the validation runs: 0.5 m/s forward, turning at 0.2 rad/s, casters
+        trailing (psi = 0)."""
+        x = np.zeros(self.state_dim)
+        x[3] = 0.5
+        x[5] = 0.2
+        return x
+
+    def validation_manoeuvre(self, t: float) -> np.ndarray:
+        """Torques (N·m) at time ``t`` of a 5 s forward manoeuvre: accelerate, turn left, turn
+        right, brake, with small steering torques.
+
+        It stays in forward motion on purpose: reversing makes pushed casters flip over, an
+        unstable motion that amplifies any perturbation at a rate of about ``|v| / d`` (tens of
+        1/s), so a step-refinement comparison there measures that instability, not RK4.
+        """
+        if t < 1.5:
+            drive = (0.8, 0.8, 0.8)
+        elif t < 3.0:
+            drive = (0.2, 1.0, 0.6)
+        elif t < 4.0:
+            drive = (1.0, 0.2, 0.6)
+        else:
+            drive = (-0.6, -0.6, -0.6)
+        steer = (0.1 * math.sin(2.0 * t), 0.1 * math.sin(2.0 * t + 1.0), 0.1 * math.sin(3.0 * t))
+        return np.array(drive + steer)
 
     # TW-1 -----------------------------------------------------------------------------
     def jacobian(self, psi) -> np.ndarray:
