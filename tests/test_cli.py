@@ -18,7 +18,8 @@ def _config(tmp_path, **block):
         ENV_ID: {"policy": "MlpPolicy", "n_envs": 2, "n_timesteps": 512, "normalize": True,
                  "n_steps": 128, "batch_size": 128, "n_epochs": 1,
                  "policy_kwargs": {"net_arch": [16]}, **block},
-        "wheelgym": {"algo": "ppo", "env_kwargs": {"task": "goal", "action_mode": "torque"}},
+        "wheelgym": {"algo": "ppo", "env_kwargs": {"task": "goal", "action_mode": "velocity"},
+                     "vec_env": "native"},
     }
     p = tmp_path / "c.yml"
     p.write_text(yaml.safe_dump(data))
@@ -66,8 +67,16 @@ def test_train_then_evaluate(capsys, tmp_path):
     assert "finished: 512 steps" in capsys.readouterr().out
     assert main(["evaluate", str(run), "--episodes", "1", "--out", str(tmp_path / "ev")]) == 0
     out = capsys.readouterr().out
-    assert "| agent (PPO) |" in out and "| random |" in out
+    assert "| agent (PPO) |" in out and "| baseline |" in out and "| random |" in out
     assert (tmp_path / "ev" / "results.csv").is_file()
+
+
+def test_demo_saves_a_gif(capsys, tmp_path):
+    out = tmp_path / "demo.gif"
+    assert main(["demo", "ThreeWheel-v0", "--task", "goal", "--action-mode", "velocity",
+                 "--out", str(out)]) == 0
+    assert out.read_bytes()[:3] == b"GIF"
+    assert "success True" in capsys.readouterr().out
 
 
 def test_validate_dispatches(monkeypatch):

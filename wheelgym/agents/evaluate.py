@@ -9,9 +9,11 @@ metric                    unit    definition
 success                   %       ``info["is_success"]`` at the episode's last step
 return                    -       sum of rewards
 RMS tracking error        m       ``sqrt(mean(e^2))`` of ``info["tracking_error"]`` over steps
+                                  (distance to the goal, or to the reference on ``track``)
 energy                    J       ``info["energy"]`` (cumulative motor work) at the last step
 peak torque               N·m     ``max |info["motor_torque"]|`` over steps and motors
-mean internal force       N       mean of ``|info["internal_force"]|`` (robots that have it)
+mean internal force       N·m     mean of ``|info["internal_force"]|``: the norm of the torques'
+                                  null-space part (ThreeWheel; 0 for the others)
 saturation                % time  share of steps with any ``info["saturated"]`` motor
 ========================= ======= =========================================================
 
@@ -50,7 +52,7 @@ METRICS: tuple[tuple[str, str, float], ...] = (
     ("rms_tracking_error", "RMS tracking error [m]", 1.0),
     ("energy", "energy [J]", 1.0),
     ("peak_torque", "peak torque [N·m]", 1.0),
-    ("mean_internal_force", "mean internal force [N]", 1.0),
+    ("mean_internal_force", "mean internal force [N·m]", 1.0),
     ("saturation", "saturation [% time]", 100.0),
 )
 
@@ -76,7 +78,7 @@ class Episode:
     poses: np.ndarray | None = None  # (T + 1, 3): x, y, yaw
     torques: np.ndarray | None = None  # (T, n_motors)
     goal: np.ndarray | None = None  # goal pose (x, y[, yaw])
-    reference: np.ndarray | None = None  # (T, 2+) reference positions along the episode
+    reference: np.ndarray | None = None  # (T, 3) reference poses along the episode (track)
     frames: list = field(default_factory=list)
 
 
@@ -101,29 +103,20 @@ def _reset_policy(policy: Any, seed: int) -> None:
         reset()
 
 
-def _goal_of(env: gym.Env, info: dict) -> np.ndarray | None:
-    for key in ("goal", "goal_pose"):
-        if key in info:
-            return np.asarray(info[key], dtype=np.float64).ravel()
-    base = env.unwrapped
-    for key in ("goal", "goal_pose"):
-        value = getattr(base, key, None)
-        if value is not None:
-            try:
-                return np.asarray(value, dtype=np.float64).ravel()
-            except (TypeError, ValueError):
-                return None
-    return None
+def _goal_of(info: dict) -> np.ndarray | None:
+    """The goal pose of a goal/navigate episode (reset info ``task.goal``), else ``None``."""
+    task = info.get("task")
+    goal = task.get("goal") if isinstance(task, dict) else info.get("goal")
+    return None if goal is None else np.asarray(goal, dtype=np.float64).ravel()
 
 
-def _reference_of(info: dict) -> np.ndarray | None:
-    for key in ("reference_pose", "reference"):
-        if key in info:
-            try:
-                return np.asarray(info[key], dtype=np.float64).ravel()
-            except (TypeError, ValueError):
-                return None
-    return None
+def _target_pose(env: gym.Env) -> np.ndarray | None:
+    """The task's current target pose (the moving reference of ``track``), where exposed."""
+    task = getattr(getattr(env.unwrapped, "core", None), "task", None)
+    fn = getattr(task, "target_pose", None)
+    if fn is None:
+        return None
+    return np.asarray(fn(), dtype=np.float64).reshape(-1, 3)[0]
 
 
 def run_episode(
@@ -146,7 +139,7 @@ def run_episode(
     ep = Episode(seed=seed, dt=float(getattr(env.unwrapped, "dt", 1.0) or 1.0))
     poses, torques, refs = [], [], []
     if record:
-        ep.goal = _goal_of(env, info)
+        ep.goal = _goal_of(info)
         if "pose" in info:
             poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
     if render:
@@ -188,11 +181,10 @@ def run_episode(
         if record:
             if "pose" in info:
                 poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
-            ref = _reference_of(info)
-            if ref is not None:
-                refs.append(ref)
             if ep.goal is None:
-                ep.goal = _goal_of(env, info)
+                ref = _target_pose(env)
+                if ref is not None:
+                    refs.append(ref)
         if render:
             ep.frames.append(env.render())
         if info.get("numerical_failure", False):

@@ -8,6 +8,7 @@ share.
 from __future__ import annotations
 
 import copy
+import inspect
 import pickle
 from pathlib import Path
 from typing import Any
@@ -88,8 +89,10 @@ def make_baseline(env: gym.Env) -> Any:
     """
     try:
         from wheelgym.control import baseline
-    except ImportError as e:  # pragma: no cover - until the control package lands
+    except ImportError as e:
         raise ValueError(f"no analytic baseline available: {e}") from None
+    if inspect.ismodule(baseline):  # the submodule wheelgym.control.baseline
+        baseline = baseline.baseline
     try:
         policy = baseline(env)
     except (TypeError, ValueError, AttributeError) as e:

@@ -107,6 +107,7 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
                 f"{config.source}: vec_env 'native' needs wheelgym.vector.make_sb3_vec_env: {e}"
             ) from None
         venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed, **config.env_kwargs)
+        venv.action_space.seed(seed)
     else:
         env_id, kwargs = config.env_id, dict(config.env_kwargs)
 

@@ -1,0 +1,159 @@
+"""Configs: every file in configs/ loads and builds; unknown keys and bad values are named."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+from wheelgym.agents.config import (  # noqa: E402
+    ALGOS,
+    TrainConfig,
+    default_config_path,
+    load_config,
+    parse_config,
+)
+from wheelgym.agents.train import algo_kwargs, build_model, make_train_env  # noqa: E402
+
+CONFIGS = sorted((Path(__file__).resolve().parents[2] / "configs").glob("*.yml"))
+
+BASE = {
+    "wheelgym/ThreeWheel-v0": {
+        "policy": "MlpPolicy",
+        "n_envs": 2,
+        "n_timesteps": 1000,
+        "normalize": True,
+        "n_steps": 64,
+        "batch_size": 64,
+        "learning_rate": "lin_0.001",
+        "policy_kwargs": {"net_arch": [16, 16], "activation_fn": "tanh"},
+    },
+    "wheelgym": {"algo": "ppo", "env_kwargs": {"task": "goal"}, "seed": 3},
+}
+
+
+def _with(block: str, key: str, value) -> dict:
+    data = copy.deepcopy(BASE)
+    data[block][key] = value
+    return data
+
+
+def test_configs_exist_and_default_is_there():
+    assert CONFIGS, "configs/ holds no YAML file"
+    assert default_config_path().resolve() in [p.resolve() for p in CONFIGS]
+
+
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_every_config_loads_and_builds(path):
+    cfg = load_config(path)
+    assert cfg.algo in ALGOS and cfg.env_id.startswith("wheelgym/")
+    assert cfg.task in ("goal", "track", "navigate") and cfg.action_mode is not None
+    # RL Zoo layout: the env-id block alone is an rl_zoo3 hyperparams entry of plain values.
+    raw = yaml.safe_load(path.read_text())
+    assert set(raw) == {cfg.env_id, "wheelgym"}
+    assert "n_timesteps" in raw[cfg.env_id] and "policy" in raw[cfg.env_id]
+    venv = make_train_env(cfg)
+    try:
+        model = build_model(cfg, venv)
+        assert model.observation_space.shape == venv.observation_space.shape
+    finally:
+        venv.close()
+
+
+def test_round_trip_and_replace():
+    cfg = parse_config(BASE)
+    assert cfg.n_envs == 2 and cfg.normalize == {} and cfg.seed == 3
+    assert parse_config(cfg.to_dict()) == cfg
+    cfg2 = cfg.replace(seed=7, n_timesteps=5000)
+    assert (cfg2.seed, cfg2.n_timesteps) == (7, 5000) and cfg.seed == 3
+    kw = algo_kwargs(cfg)
+    assert callable(kw["learning_rate"]) and kw["learning_rate"](0.5) == pytest.approx(5e-4)
+    import torch
+
+    assert kw["policy_kwargs"]["activation_fn"] is torch.nn.Tanh
+
+
+@pytest.mark.parametrize(
+    ("block", "key", "value", "named"),
+    [
+        ("wheelgym/ThreeWheel-v0", "lerning_rate", 0.001, "lerning_rate"),
+        ("wheelgym", "sed", 1, "sed"),
+        ("wheelgym/ThreeWheel-v0", "learning_rate", -1.0, "learning_rate"),
+        ("wheelgym/ThreeWheel-v0", "learning_rate", "exp_0.1", "learning_rate"),
+        ("wheelgym/ThreeWheel-v0", "n_envs", 0, "n_envs"),
+        ("wheelgym/ThreeWheel-v0", "gamma", 1.5, "gamma"),
+        ("wheelgym/ThreeWheel-v0", "n_steps", 2.5, "n_steps"),
+        ("wheelgym/ThreeWheel-v0", "batch_size", 1, "batch_size"),
+        ("wheelgym/ThreeWheel-v0", "policy", "CnnPolicy", "policy"),
+        ("wheelgym/ThreeWheel-v0", "normalize", "dict(norm_obs=True)", "normalize"),
+        ("wheelgym/ThreeWheel-v0", "policy_kwargs", "dict(net_arch=[64, 64])", "policy_kwargs"),
+        ("wheelgym/ThreeWheel-v0", "policy_kwargs", {"net_arch": [64, "x"]}, "net_arch"),
+        ("wheelgym/ThreeWheel-v0", "policy_kwargs", {"activation_fn": "nn.Tanh"},
+         "activation_fn"),
+        ("wheelgym/ThreeWheel-v0", "policy_kwargs", {"optimizer_class": "Adam"},
+         "optimizer_class"),
+        ("wheelgym/ThreeWheel-v0", "noise_type", "normal", "noise_type"),
+        ("wheelgym", "algo", "dqn", "algo"),
+        ("wheelgym", "vec_env", "threads", "vec_env"),
+        ("wheelgym", "eval_episodes", 0, "eval_episodes"),
+        ("wheelgym", "env_kwargs", ["goal"], "env_kwargs"),
+    ],
+)
+def test_unknown_key_or_bad_value_is_named(block, key, value, named):
+    with pytest.raises(ValueError, match=named):
+        parse_config(_with(block, key, value), source="bad.yml")
+
+
+def test_sac_keys_checked_per_algorithm():
+    data = _with("wheelgym", "algo", "sac")
+    with pytest.raises(ValueError, match="n_steps"):  # a PPO key in a SAC config
+        parse_config(data)
+    block = data["wheelgym/ThreeWheel-v0"]
+    for k in ("n_steps", "batch_size"):
+        block.pop(k)
+    block.update(buffer_size=1000, train_freq=[1, "episode"], ent_coef="auto_0.1",
+                 noise_type="normal", noise_std=0.1)
+    cfg = parse_config(data)
+    assert cfg.noise == ("normal", 0.1)
+    block["ent_coef"] = "auto_x"
+    with pytest.raises(ValueError, match="ent_coef"):
+        parse_config(data)
+
+
+def test_file_errors_are_value_errors(tmp_path):
+    with pytest.raises(ValueError, match="not found"):
+        load_config(tmp_path / "missing.yml")
+    p = tmp_path / "c.yml"
+    p.write_text("wheelgym/ThreeWheel-v0: {n_timesteps: 10}\n")  # no wheelgym block
+    with pytest.raises(ValueError, match="'wheelgym' block"):
+        load_config(p)
+    p.write_text("a: {n_timesteps: 10}\nb: {}\nwheelgym: {algo: ppo}\n")
+    with pytest.raises(ValueError, match="exactly one env-id block"):
+        load_config(p)
+    p.write_text("wheelgym/ThreeWheel-v0: {n_timesteps: .nan}\nwheelgym: {algo: ppo}\n")
+    with pytest.raises(ValueError, match="finite"):
+        load_config(p)
+    # YAML tags that build Python objects are not plain values: safe_load refuses them.
+    p.write_text("wheelgym/ThreeWheel-v0: !!python/object/apply:os.getcwd []\n"
+                 "wheelgym: {algo: ppo}\n")
+    with pytest.raises(ValueError, match="not valid YAML"):
+        load_config(p)
+
+
+def test_unregistered_env_id_is_named():
+    data = copy.deepcopy(BASE)
+    data["wheelgym/Nope-v0"] = data.pop("wheelgym/ThreeWheel-v0")
+    cfg = parse_config(data)
+    assert isinstance(cfg, TrainConfig)
+    with pytest.raises(ValueError, match="Nope-v0"):
+        make_train_env(cfg)
+
+
+def test_bad_env_kwarg_is_named():
+    cfg = parse_config(_with("wheelgym", "env_kwargs", {"task": "fly"}))
+    with pytest.raises(ValueError, match="task"):
+        make_train_env(cfg)
