@@ -42,9 +42,10 @@ __all__ = ["ThreeWheelParams", "ThreeWheel", "noc_terms", "RK4_REAL_STABILITY_LI
 #: RK4's stability region reaches ``lambda dt = -2.785`` on the negative real axis.
 RK4_REAL_STABILITY_LIMIT = 2.785
 
-# Layout of the packed parameter vector read by the kernels (the last five are derived).
+# Layout of the packed parameter vector read by the kernels (from _KW on: derived values).
 (_MB, _IB, _MW, _IWY, _IWZ, _R, _D, _A1X, _A1Y, _A2X, _A2Y, _A3X, _A3Y, _MUR, _MUP, _RHO,
- _BD, _BS, _KS, _G, _TDM, _TSM, _KW, _KZ, _MT, _INVD, _INVR) = range(27)
+ _BD, _BS, _KS, _G, _TDM, _TSM, _KW, _KZ, _MT, _INVD, _INVR, _M0) = range(28)
+# _M0 .. _M0 + 5: the constant part M_0 of M (upper triangle), see ThreeWheelParams.pack
 
 
 def _cross2(a: np.ndarray, b: np.ndarray) -> float:
@@ -162,12 +163,19 @@ class ThreeWheelParams(Params):
 
     def pack(self) -> np.ndarray:
         a = self.axes_array
+        # M(psi) = M_0 + (k_w - k_z) sum_i g_i g_i^T: since g_i g_i^T + h_i h_i^T does not
+        # depend on psi_i (it is [[1, 0, -ay], [0, 1, ax], [-ay, ax, ax^2 + ay^2]]), the k_z
+        # part of TW-3's M is constant and goes into M_0 with the platform.
+        kz = self.k_z
+        m0 = [self.m_b + 3.0 * kz, 0.0, -kz * float(np.sum(a[:, 1])),
+              self.m_b + 3.0 * kz, kz * float(np.sum(a[:, 0])),
+              self.I_b + kz * float(np.sum(a * a))]
         return np.array(
             [self.m_b, self.I_b, self.m_w, self.I_wy, self.I_wz, self.r, self.d,
              a[0, 0], a[0, 1], a[1, 0], a[1, 1], a[2, 0], a[2, 1],
              self.mu_r, self.mu_p, self.rho, self.b_drive, self.b_steer, self.k_s, self.g,
              self.tau_drive_max, self.tau_steer_max, self.k_w, self.k_z, self.m_total,
-             1.0 / self.d, 1.0 / self.r],
+             1.0 / self.d, 1.0 / self.r, *m0],
             dtype=np.float64,
         )
 
@@ -292,13 +300,12 @@ def _loads(cs, p):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _mass_i(g, h, p):  # pragma: no cover - compiled
-    """Module share ``k_w g g^T + k_z h h^T`` of M (TW-3), upper triangle."""
-    kw = p[_KW]
-    kz = p[_KZ]
-    return (kw * g[0] * g[0] + kz * h[0] * h[0], kw * g[0] * g[1] + kz * h[0] * h[1],
-            kw * g[0] * g[2] + kz * h[0] * h[2], kw * g[1] * g[1] + kz * h[1] * h[1],
-            kw * g[1] * g[2] + kz * h[1] * h[2], kw * g[2] * g[2] + kz * h[2] * h[2])
+def _mass_i(g, p):  # pragma: no cover - compiled
+    """Module share ``(k_w - k_z) g g^T`` of ``M - M_0`` (TW-3), upper triangle; the rest of
+    ``k_w g g^T + k_z h h^T`` is constant (see ThreeWheelParams.pack)."""
+    k = p[_KW] - p[_KZ]
+    return (k * g[0] * g[0], k * g[0] * g[1], k * g[0] * g[2], k * g[1] * g[1],
+            k * g[1] * g[2], k * g[2] * g[2])
 
 
 # Every generalized force of module i lies in span{g_i, h_i, e_3} (the rows of J are g_i / r
@@ -352,10 +359,10 @@ def _jrows_i(g, h, p):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _mass(cs, p):  # pragma: no cover - compiled
     """Upper triangle (m00, m01, m02, m11, m12, m22) of M(psi), physics.md TW-3."""
-    m = (p[_MB], 0.0, 0.0, p[_MB], 0.0, p[_IB])  # platform diag(m_b, m_b, I_b)
+    m = (p[_M0], p[_M0 + 1], p[_M0 + 2], p[_M0 + 3], p[_M0 + 4], p[_M0 + 5])  # M_0
     for i in range(3):
         g, h = _gh(cs, i, p)
-        a = _mass_i(g, h, p)
+        a = _mass_i(g, p)
         m = (m[0] + a[0], m[1] + a[1], m[2] + a[2], m[3] + a[3], m[4] + a[4], m[5] + a[5])
     return m
 
@@ -443,7 +450,7 @@ def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
     g, h = _gh(cs, i, p)
     gu = g[0] * vx + g[1] * vy + g[2] * wz
     hu = h[0] * vx + h[1] * vy + h[2] * wz
-    a = _mass_i(g, h, p)
+    a = _mass_i(g, p)
     tb = _bias_i(gu, hu, wz, p)
     tq = _friction_i(gu, hu, wz, n_i, p)
     tt = _jt_tau_i(tau_drive, tau_steer, p)
@@ -467,7 +474,7 @@ def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
     out[2] = wz
     n = _loads(cs, p)
     # TW-3: M udot = J^T tau + Q_f - c; the platform's share, then each module's
-    m = (p[_MB], 0.0, 0.0, p[_MB], 0.0, p[_IB])
+    m = (p[_M0], p[_M0 + 1], p[_M0 + 2], p[_M0 + 3], p[_M0 + 4], p[_M0 + 5])
     f = (p[_MB] * wz * vy, -p[_MB] * wz * vx, 0.0)
     m, f, out[6], out[9] = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f)
     m, f, out[7], out[10] = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f)
