@@ -23,106 +23,132 @@ def _clip(a, lim):  # pragma: no cover - compiled
 def _wrap(a):  # pragma: no cover - compiled
     return math.atan2(math.sin(a), math.cos(a))
 
+# Block layouts (wheelgym.envs.robots._body.layout): pose at 2m+2, twist at 2m+5, eff 2m+1,
+# xf 2m+8, reward 2m+9, err 2m+10, feat from 2m+11; flags F: 0 sat, 1 ok, 2 term, 3 succ,
+# 4 collision. cfg (goal): tol_p, tol_y, vmax, wmax, pclip, vclip, wclip;
+# cfg (track): vmax, wmax, lost, tol_p, pclip, vclip, wclip.
+
+
 @njit(cache=True, inline="always")
-def _common_tail(i, j, twist, feat, fclip, vclip, wclip, obs):  # pragma: no cover - compiled
-    obs[i, j] = _clip(twist[i, 0], vclip)
-    obs[i, j + 1] = _clip(twist[i, 1], vclip)
-    obs[i, j + 2] = _clip(twist[i, 2], wclip)
+def _common_tail(b, o, j, nf, fclip, vclip, wclip, obs_i):  # pragma: no cover - compiled
+    obs_i[j] = _clip(b[o + 5], vclip)
+    obs_i[j + 1] = _clip(b[o + 6], vclip)
+    obs_i[j + 2] = _clip(b[o + 7], wclip)
     j += 3
-    for k in range(feat.shape[1]):
-        obs[i, j] = _clip(feat[i, k], fclip[k])
+    for k in range(nf):
+        obs_i[j] = _clip(b[o + 11 + k], fclip[k])
         j += 1
     return j
 
+
 @njit(cache=True, inline="always")
-def _overspeed(ok, twist, i, vmax, wmax):  # pragma: no cover - compiled
-    return (not ok[i]) or math.hypot(twist[i, 0], twist[i, 1]) > vmax or abs(twist[i, 2]) > wmax
+def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
+    return (not ok) or math.hypot(b[o + 5], b[o + 6]) > vmax or abs(b[o + 7]) > wmax
+
 
 @njit(cache=True)
-def k_goal(pose, twist, feat, eff, xf, ok, goal, prev_dist, ranges, coll, tol_p, tol_y, vmax,
-           wmax, pclip, vclip, wclip, fclip, W, obs, terms, reward, term, succ,
-           dist):  # pragma: no cover - compiled
-    """Goal and navigate tasks: observation, the 7 term columns, termination, success."""
-    N = pose.shape[0]
+def k_goal(B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+           terms):  # pragma: no cover - compiled
+    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist."""
+    N = B.shape[0]
+    o = 2 * m  # energy column; pose at o + 2
+    nf = B.shape[1] - (2 * m + 11)
+    tol_p, tol_y, vmax, wmax, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
+                                                      cfg[5], cfg[6])
     for i in range(N):
-        dx = goal[i, 0] - pose[i, 0]
-        dy = goal[i, 1] - pose[i, 1]
-        c = math.cos(pose[i, 2])
-        s = math.sin(pose[i, 2])
+        b = B[i]
+        ob = obs[i]
+        dx = goal[i, 0] - b[o + 2]
+        dy = goal[i, 1] - b[o + 3]
+        c = math.cos(b[o + 4])
+        s = math.sin(b[o + 4])
         d = math.hypot(dx, dy)
-        ey = _wrap(goal[i, 2] - pose[i, 2])
-        obs[i, 0] = _clip(c * dx + s * dy, pclip)  # goal in B
-        obs[i, 1] = _clip(-s * dx + c * dy, pclip)
-        obs[i, 2] = math.cos(ey)
-        obs[i, 3] = math.sin(ey)
-        j = _common_tail(i, 4, twist, feat, fclip, vclip, wclip, obs)
+        ey = _wrap(goal[i, 2] - b[o + 4])
+        ob[0] = _clip(c * dx + s * dy, pclip)  # goal in B
+        ob[1] = _clip(-s * dx + c * dy, pclip)
+        ob[2] = math.cos(ey)
+        ob[3] = math.sin(ey)
+        j = _common_tail(b, o, 4, nf, fclip, vclip, wclip, ob)
         for k in range(ranges.shape[1]):
-            obs[i, j + k] = ranges[i, k]
-        over = _overspeed(ok, twist, i, vmax, wmax)
-        hit = coll[i]
-        win = ok[i] and (not hit) and d < tol_p and abs(ey) < tol_y
-        terms[i, 0] = W[0] * (prev_dist[i] - d)
-        terms[i, 1] = -W[1] * abs(ey) / math.pi
-        terms[i, 2] = -W[2] * eff[i]
-        terms[i, 3] = -W[3] * xf[i]
-        terms[i, 4] = W[4] if win else 0.0
-        terms[i, 5] = -W[5] if over else 0.0
-        terms[i, 6] = -W[6] if hit else 0.0
+            ob[j + k] = ranges[i, k]
+        ok = F[i, 1]
+        over = _overspeed(ok, b, o, vmax, wmax)
+        hit = F[i, 4]
+        win = ok and (not hit) and d < tol_p and abs(ey) < tol_y
+        t = terms[i]
+        t[0] = W[0] * (prev_dist[i] - d)
+        t[1] = -W[1] * abs(ey) / math.pi
+        t[2] = -W[2] * b[o + 1]
+        t[3] = -W[3] * b[o + 8]
+        t[4] = W[4] if win else 0.0
+        t[5] = -W[5] if over else 0.0
+        t[6] = -W[6] if hit else 0.0
         r = 0.0
-        for k in range(terms.shape[1]):
-            r += terms[i, k]
-        reward[i] = r
-        term[i] = win or over or hit
-        succ[i] = win
-        dist[i] = d
+        for k in range(t.shape[0]):
+            r += t[k]
+        b[o + 9] = r
+        F[i, 2] = win or over or hit
+        F[i, 3] = win
+        b[o + 10] = d
+
 
 @njit(cache=True)
-def k_track(pose, twist, feat, eff, xf, ok, ref, kstep, preview, vmax, wmax, lost, tol_p, pclip,
-            vclip, wclip, fclip, W, obs, terms, reward, term, succ,
-            err):  # pragma: no cover - compiled
+def k_track(B, F, m, ref, kstep, preview, cfg, fclip, W, obs,
+            terms):  # pragma: no cover - compiled
     """Track task. ``ref (N, L, 6)`` holds pose and body twist of the reference per control step;
     row i compares with ``ref[i, kstep[i]]`` and previews ``ref[i, kstep[i] + preview[q]]``."""
-    N = pose.shape[0]
+    N = B.shape[0]
     L = ref.shape[1]
+    o = 2 * m
+    nf = B.shape[1] - (2 * m + 11)
+    vmax, wmax, lost, tol_p, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
+                                                     cfg[5], cfg[6])
     for i in range(N):
+        b = B[i]
+        ob = obs[i]
         k = min(kstep[i], L - 1)
-        c = math.cos(pose[i, 2])
-        s = math.sin(pose[i, 2])
-        dx = ref[i, k, 0] - pose[i, 0]
-        dy = ref[i, k, 1] - pose[i, 1]
+        px = b[o + 2]
+        py = b[o + 3]
+        c = math.cos(b[o + 4])
+        s = math.sin(b[o + 4])
+        dx = ref[i, k, 0] - px
+        dy = ref[i, k, 1] - py
         e = math.hypot(dx, dy)
-        ey = _wrap(ref[i, k, 2] - pose[i, 2])
-        obs[i, 0] = _clip(c * dx + s * dy, pclip)  # reference in B
-        obs[i, 1] = _clip(-s * dx + c * dy, pclip)
-        obs[i, 2] = math.cos(ey)
-        obs[i, 3] = math.sin(ey)
-        obs[i, 4] = _clip(ref[i, k, 3], vclip)  # reference twist in its own frame
-        obs[i, 5] = _clip(ref[i, k, 4], vclip)
-        obs[i, 6] = _clip(ref[i, k, 5], wclip)
+        ey = _wrap(ref[i, k, 2] - b[o + 4])
+        ob[0] = _clip(c * dx + s * dy, pclip)  # reference in B
+        ob[1] = _clip(-s * dx + c * dy, pclip)
+        ob[2] = math.cos(ey)
+        ob[3] = math.sin(ey)
+        ob[4] = _clip(ref[i, k, 3], vclip)  # reference twist in its own frame
+        ob[5] = _clip(ref[i, k, 4], vclip)
+        ob[6] = _clip(ref[i, k, 5], wclip)
         j = 7
         for q in range(preview.shape[0]):
             kq = min(k + preview[q], L - 1)
-            qx = ref[i, kq, 0] - pose[i, 0]
-            qy = ref[i, kq, 1] - pose[i, 1]
-            obs[i, j] = _clip(c * qx + s * qy, pclip)
-            obs[i, j + 1] = _clip(-s * qx + c * qy, pclip)
+            qx = ref[i, kq, 0] - px
+            qy = ref[i, kq, 1] - py
+            ob[j] = _clip(c * qx + s * qy, pclip)
+            ob[j + 1] = _clip(-s * qx + c * qy, pclip)
             j += 2
-        _common_tail(i, j, twist, feat, fclip, vclip, wclip, obs)
-        over = _overspeed(ok, twist, i, vmax, wmax)
+        _common_tail(b, o, j, nf, fclip, vclip, wclip, ob)
+        ok = F[i, 1]
+        over = _overspeed(ok, b, o, vmax, wmax)
         gone = e > lost
-        terms[i, 0] = -W[0] * e
-        terms[i, 1] = -W[1] * abs(ey) / math.pi
-        terms[i, 2] = -W[2] * eff[i]
-        terms[i, 3] = -W[3] * xf[i]
-        terms[i, 4] = -W[4] if over else 0.0
-        terms[i, 5] = -W[5] if gone else 0.0
+        t = terms[i]
+        t[0] = -W[0] * e
+        t[1] = -W[1] * abs(ey) / math.pi
+        t[2] = -W[2] * b[o + 1]
+        t[3] = -W[3] * b[o + 8]
+        t[4] = -W[4] if over else 0.0
+        t[5] = -W[5] if gone else 0.0
         r = 0.0
-        for q in range(terms.shape[1]):
-            r += terms[i, q]
-        reward[i] = r
-        term[i] = over or gone
-        succ[i] = ok[i] and e < tol_p
-        err[i] = e
+        for q in range(t.shape[0]):
+            r += t[q]
+        b[o + 9] = r
+        F[i, 2] = over or gone
+        F[i, 3] = ok and e < tol_p
+        b[o + 10] = e
+
 
 @njit(cache=True)
 def k_noise(obs, noise, low, high):  # pragma: no cover - compiled
@@ -131,4 +157,3 @@ def k_noise(obs, noise, low, high):  # pragma: no cover - compiled
         for j in range(obs.shape[1]):
             v = obs[i, j] + noise[i, j]
             obs[i, j] = min(max(v, low[j]), high[j])
-

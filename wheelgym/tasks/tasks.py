@@ -96,7 +96,8 @@ class GoalTask(Task):
         self.goal = np.zeros((N, 3))
         self.prev = np.zeros(N)
         self.ranges = np.zeros((N, self.n_rays))
-        self.coll = np.zeros(N, dtype=np.bool_)
+        self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
+                             POS_CLIP, core.vclip, core.wclip])
 
     def term_names(self, spec) -> tuple[str, ...]:
         return tuple(n for n in super().term_names(spec) if n != "collision")
@@ -122,10 +123,8 @@ class GoalTask(Task):
 
     def evaluate(self) -> None:
         c = self.core
-        k_goal(c.pose, c.twist, c.feat, c.eff, c.xf, c.ok, self.goal, self.prev, self.ranges,
-               self.coll, self.tol_pos, self.tol_yaw, c.spec.v_max, c.spec.w_max, POS_CLIP,
-               c.vclip, c.wclip, c.fclip, self.W, c.obs, c.terms, c.reward, c.term, c.succ,
-               c.err)
+        k_goal(c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.cfg, c.fclip, self.W,
+               c.obs, c.terms)
 
     def commit(self, rows=None) -> None:
         if rows is None:
@@ -212,7 +211,7 @@ class NavigateTask(GoalTask):
                 pymunk_ranges(self.spaces[i], c.pose[i], self.n_rays, self.max_range,
                               self.ranges[i])
         k_clearance(c.pose, self.circles, self.nc, self.segs, self.ns, self.clear)
-        np.less(self.clear, c.spec.radius, out=self.coll)
+        np.less(self.clear, c.spec.radius, out=c.coll)
 
     def evaluate(self) -> None:
         self.sense()
@@ -242,6 +241,8 @@ class TrackTask(Task):
         self.ref_rate = np.zeros((N, self.L, 3))
         self.kstep = np.zeros(N, dtype=np.int64)
         self.kind = [""] * N
+        self.cfg = np.array([core.spec.v_max, core.spec.w_max, self.lost_dist, self.tol_pos,
+                             POS_CLIP, core.vclip, core.wclip])
 
     def obs_layout(self):
         tail, tnames = self._tail_bounds()
@@ -297,10 +298,8 @@ class TrackTask(Task):
 
     def evaluate(self) -> None:
         c = self.core
-        k_track(c.pose, c.twist, c.feat, c.eff, c.xf, c.ok, self.ref, self.kstep,
-                self.preview_steps, c.spec.v_max, c.spec.w_max, self.lost_dist, self.tol_pos,
-                POS_CLIP, c.vclip, c.wclip, c.fclip, self.W, c.obs, c.terms, c.reward, c.term,
-                c.succ, c.err)
+        k_track(c.B, c.F, c.m, self.ref, self.kstep, self.preview_steps, self.cfg, c.fclip,
+                self.W, c.obs, c.terms)
 
     def advance(self) -> None:
         """Move every row's reference index one control step on (before integrating)."""

@@ -25,8 +25,8 @@ class RobotSpec:
     Attributes:
         name: robot name used in ids (``"SkidSteer"``...).
         model_cls: the :class:`~wheelgym.models.Model` subclass.
-        k_env_step: compiled ``k_env_step(X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff, pose,
-            twist, feat, xf, sat, ok) -> bool`` (see ``_body.env_step_body``).
+        k_env_step: compiled ``k_env_step(X, A, LH, P, h, n, Xo, B, F) -> bool`` (see
+            ``_body.env_step_body``).
         input_bounds: ``input_bounds(params, mode) -> (lo, hi)`` physical bounds of the
             action in that action mode (torques N·m, or the kinematic inputs).
         action_modes: valid ``action_mode`` values, the default first.

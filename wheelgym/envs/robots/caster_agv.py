@@ -39,10 +39,8 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def k_env_step(X, A, LO, HI, P, h, n, Xo, U, jv, energy, eff, pose, twist, feat, xf, sat,
-               ok):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _jrate, _feats, X, A, LO, HI, P, h, n, Xo, U, jv, energy,
-                         eff, pose, twist, feat, xf, sat, ok)
+def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params: CasterAGVParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
