@@ -379,5 +379,4 @@ class WheelCore:
         self.task.evaluate()
         if self.obs_noise > 0:
             self._noise(range(self.num) if active is None else np.flatnonzero(active))
-        self.task.commit()
         return self.obs, self.reward, self.term, self.info_buffers

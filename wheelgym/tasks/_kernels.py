@@ -49,7 +49,10 @@ def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
 @njit(cache=True)
 def k_goal(B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
            terms):  # pragma: no cover - compiled
-    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist."""
+    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist.
+
+    Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose,
+    as in a partial reset of a batch, gets the same bits again)."""
     N = B.shape[0]
     o = 2 * m  # energy column; pose at o + 2
     nf = B.shape[1] - (2 * m + 11)
@@ -90,6 +93,7 @@ def k_goal(B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
         F[i, 2] = win or over or hit
         F[i, 3] = win
         b[o + 10] = d
+        prev_dist[i] = d  # the next step's progress is measured from here
 
 
 @njit(cache=True)

@@ -126,12 +126,6 @@ class GoalTask(Task):
         k_goal(c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.cfg, c.fclip, self.W,
                c.obs, c.terms)
 
-    def commit(self, rows=None) -> None:
-        if rows is None:
-            self.prev[:] = self.core.err
-        else:
-            self.prev[rows] = self.core.err[rows]
-
     def target_pose(self) -> np.ndarray:
         return self.goal
 
