@@ -1,5 +1,6 @@
 """Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4)."""
 
+from wheelgym.control.baseline import BaselinePolicy, baseline
 from wheelgym.control.controllers import (
     TrackingController,
     TrackingGains,
@@ -26,6 +27,8 @@ from wheelgym.control.distribution import (
 )
 
 __all__ = [
+    "baseline",
+    "BaselinePolicy",
     "TrackingController",
     "TrackingGains",
     "TwistController",
