@@ -5,7 +5,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import assert_same, env_id
+
+from tests.vector.conftest import assert_same, env_id
 
 pytest.importorskip("stable_baselines3")
 import torch  # noqa: E402

@@ -11,9 +11,9 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-from conftest import ROBOTS, assert_same, combos, env_id
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
+from tests.vector.conftest import ROBOTS, assert_same, combos, env_id
 from wheelgym.vector import ThreeWheelVectorEnv, WheelVectorEnv
 
 NEXT, SAME, DISABLED = AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED
