@@ -157,3 +157,26 @@ def test_bad_env_kwarg_is_named():
     cfg = parse_config(_with("wheelgym", "env_kwargs", {"task": "fly"}))
     with pytest.raises(ValueError, match="task"):
         make_train_env(cfg)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_each_algorithm_builds_and_steps(algo, tmp_path):
+    block = {"policy": "MlpPolicy", "n_envs": 2, "n_timesteps": 64, "normalize": True,
+             "policy_kwargs": {"net_arch": [16, 16], "activation_fn": "relu"}}
+    if algo in ("ppo", "a2c"):
+        block.update(n_steps=16, learning_rate="lin_0.001")
+    else:
+        block.update(buffer_size=1000, learning_starts=16, batch_size=16, train_freq=[1, "step"],
+                     noise_type="normal", noise_std=0.1)
+    if algo == "ppo":
+        block["batch_size"] = 16
+    cfg = parse_config({"wheelgym/ThreeWheel-v0": block,
+                        "wheelgym": {"algo": algo, "vec_env": "native",
+                                     "env_kwargs": {"task": "goal", "action_mode": "velocity"}}})
+    venv = make_train_env(cfg)
+    model = build_model(cfg, venv)
+    model.learn(64)
+    assert model.num_timesteps >= 64
+    if algo in ("sac", "td3"):
+        assert model.action_noise is not None
+    venv.close()
