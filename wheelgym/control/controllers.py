@@ -45,6 +45,7 @@ from wheelgym import integrators as _integrators
 from wheelgym.control import _cache
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
+from wheelgym.integrators import all_finite
 from wheelgym.models import caster_agv as _ca
 from wheelgym.models import friction as _friction
 from wheelgym.models import skid_steer as _ss
@@ -364,40 +365,60 @@ def _ca_track_one(x, pose, tw, rate, p, tmax, gains, dt, tau):  # pragma: no cov
     return _saturate(tau, tmax)
 
 
+# Batch kernels (also the single-state path, with a batch of one). Each returns False, before
+# computing anything, when an input is not finite.
 @njit(cache=True)
 def _k_tw_twist(X, C, p, tmax, kv, dt, mode, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(C)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _tw_twist_one(X[n], C[n], p, tmax, kv, dt, mode, out[n])
+    return True
 
 
 @njit(cache=True)
 def _k_tw_track(X, P, T, R, p, tmax, kp, kd, dt, mode, out, sat):  # pragma: no cover
+    if not (all_finite(X) and all_finite(P) and all_finite(T) and all_finite(R)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _tw_track_one(X[n], P[n], T[n], R[n], p, tmax, kp, kd, dt, mode, out[n])
+    return True
 
 
 @njit(cache=True)
 def _k_ss_twist(X, C, p, tmax, frac, kv, dt, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(C)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _ss_twist_one(X[n], C[n], p, tmax, frac, kv, dt, out[n])
+    return True
 
 
 @njit(cache=True)
 def _k_ss_track(X, P, T, R, p, tmax, frac, gains, dt, out, sat):  # pragma: no cover
+    if not (all_finite(X) and all_finite(P) and all_finite(T) and all_finite(R)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _ss_track_one(X[n], P[n], T[n], R[n], p, tmax, frac, gains, dt, out[n])
+    return True
 
 
 @njit(cache=True)
 def _k_ca_twist(X, C, p, tmax, kv, dt, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(C)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _ca_twist_one(X[n], C[n], p, tmax, kv, dt, out[n])
+    return True
 
 
 @njit(cache=True)
 def _k_ca_track(X, P, T, R, p, tmax, gains, dt, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(P) and all_finite(T) and all_finite(R)):
+        return False
     for n in range(X.shape[0]):
         sat[n] = _ca_track_one(X[n], P[n], T[n], R[n], p, tmax, gains, dt, out[n])
+    return True
 
 
 @njit(cache=True)
@@ -407,64 +428,9 @@ def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
                   Q[n])
 
 
-@njit(cache=True, inline="always")
-def _finite1(a, n):  # pragma: no cover - compiled
-    """True when ``a`` has length ``n`` and every entry is finite."""
-    if a.shape[0] != n:
-        return False
-    for i in range(n):
-        if not np.isfinite(a[i]):
-            return False
-    return True
-
-
-# Single-state entry points (the fast path of ``torques``): check sizes and finiteness inside
-# the compiled code and return 1 (saturated), 0 (not), or -1 (bad input).
-@njit(cache=True)
-def _one_tw_twist(x, c, p, tmax, kv, dt, mode, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 12) and _finite1(c, 3)):
-        return -1
-    return 1 if _tw_twist_one(x, c, p, tmax, kv, dt, mode, tau) else 0
-
-
-@njit(cache=True)
-def _one_tw_track(x, P, T, R, p, tmax, kp, kd, dt, mode, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 12) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
-        return -1
-    return 1 if _tw_track_one(x, P, T, R, p, tmax, kp, kd, dt, mode, tau) else 0
-
-
-@njit(cache=True)
-def _one_ss_twist(x, c, p, tmax, frac, kv, dt, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 5) and _finite1(c, 2)):
-        return -1
-    return 1 if _ss_twist_one(x, c, p, tmax, frac, kv, dt, tau) else 0
-
-
-@njit(cache=True)
-def _one_ss_track(x, P, T, R, p, tmax, frac, gains, dt, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 5) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
-        return -1
-    return 1 if _ss_track_one(x, P, T, R, p, tmax, frac, gains, dt, tau) else 0
-
-
-@njit(cache=True)
-def _one_ca_twist(x, c, p, tmax, kv, dt, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 9) and _finite1(c, 2)):
-        return -1
-    return 1 if _ca_twist_one(x, c, p, tmax, kv, dt, tau) else 0
-
-
-@njit(cache=True)
-def _one_ca_track(x, P, T, R, p, tmax, gains, dt, tau):  # pragma: no cover - compiled
-    if not (_finite1(x, 9) and _finite1(P, 3) and _finite1(T, 3) and _finite1(R, 3)):
-        return -1
-    return 1 if _ca_track_one(x, P, T, R, p, tmax, gains, dt, tau) else 0
-
-
-def _is_vec(a: Any) -> bool:
-    """A 1-D C-contiguous float64 array (eligible for the single-state fast path)."""
-    return (type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64
+def _is_vec(a: Any, n: int) -> bool:
+    """A C-contiguous float64 array of shape (n,) (eligible for the single-state fast path)."""
+    return (type(a) is np.ndarray and a.shape == (n,) and a.dtype == np.float64
             and a.flags.c_contiguous)
 
 
@@ -484,8 +450,6 @@ def _batch(a: Any, width: int, name: str) -> np.ndarray:
     arr = np.asarray(a, dtype=np.float64)
     if arr.ndim == 0 or arr.shape[-1] != width:
         raise ValueError(f"{name} must have shape (..., {width}), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite")
     return arr
 
 
@@ -515,6 +479,8 @@ def inverse_dynamics(model: ThreeWheel, x: Any, udot: Any, u_friction: Any = Non
     X = _batch(x, 12, "x")
     UD = _batch(udot, 3, "udot")
     UF = X[..., 3:6] if u_friction is None else _batch(u_friction, 3, "u_friction")
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(UD)) and np.all(np.isfinite(UF))):
+        raise ValueError("x, udot and u_friction must be finite")
     (X2, UD2, UF2), lead = _flat([X, UD, UF])
     J = np.empty((X2.shape[0], 6, 3))
     Q = np.empty((X2.shape[0], 3))
@@ -626,32 +592,28 @@ class TwistController(_Controller):
         Returns:
             ``(tau, saturated)``: ``(..., m)`` N·m within the limits, and ``(...,)`` bool.
         """
-        if _is_vec(x) and _is_vec(twist_cmd):
-            tau = np.empty(self.model.input_dim)
-            g = self.gains
-            if self._tw:
-                st = _one_tw_twist(x, twist_cmd, self._p, self._tmax, g.k_v, g.ctrl_dt,
-                                   self._mode, tau)
-            elif self._ca:
-                st = _one_ca_twist(x, twist_cmd, self._p, self._tmax, g.k_v, g.ctrl_dt, tau)
-            else:
-                st = _one_ss_twist(x, twist_cmd, self._p, self._tmax, self._frac, g.k_v,
-                                   g.ctrl_dt, tau)
-            if st >= 0:
-                return tau, np.bool_(st == 1)
-        X = _batch(x, self.model.state_dim, "x")
-        C = _batch(twist_cmd, self.command_dim, "twist_cmd")
-        (X2, C2), lead = _flat([X, C])
+        nx, k = self.model.state_dim, self.command_dim
+        if _is_vec(x, nx) and _is_vec(twist_cmd, k):  # one state: a batch of one, no copies
+            X2, C2, lead = x.reshape(1, nx), twist_cmd.reshape(1, k), ()
+        else:
+            X = _batch(x, nx, "x")
+            C = _batch(twist_cmd, k, "twist_cmd")
+            (X2, C2), lead = _flat([X, C])
         n = X2.shape[0]
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
         g = self.gains
         if self._tw:
-            _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
+            ok = _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
         elif self._ca:
-            _k_ca_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, out, sat)
+            ok = _k_ca_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, out, sat)
         else:
-            _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out, sat)
+            ok = _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out,
+                             sat)
+        if not ok:
+            raise ValueError("x and twist_cmd must be finite")
+        if lead == ():
+            return out[0], sat[0]
         return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
 
     def act(self, state: Any, reference: Any) -> np.ndarray:
@@ -707,37 +669,34 @@ class TrackingController(_Controller):
         ``ref_pose`` ``(..., 3)`` world (x, y, yaw); ``ref_twist`` and ``ref_twist_rate``
         ``(..., 3)`` in the reference's body frame (as :meth:`Reference.evaluate` returns).
         """
-        if _is_vec(x) and _is_vec(ref_pose) and _is_vec(ref_twist) and _is_vec(ref_twist_rate):
-            tau = np.empty(self.model.input_dim)
-            g = self.gains
-            if self._tw:
-                st = _one_tw_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
-                                   g.k_p, g.k_d, g.ctrl_dt, self._mode, tau)
-            elif self._ca:
-                st = _one_ca_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
-                                   self._gv, g.ctrl_dt, tau)
-            else:
-                st = _one_ss_track(x, ref_pose, ref_twist, ref_twist_rate, self._p, self._tmax,
-                                   self._frac, self._gv, g.ctrl_dt, tau)
-            if st >= 0:
-                return tau, np.bool_(st == 1)
-        X = _batch(x, self.model.state_dim, "x")
-        P = _batch(ref_pose, 3, "ref_pose")
-        T = _batch(ref_twist, 3, "ref_twist")
-        R = _batch(ref_twist_rate, 3, "ref_twist_rate")
-        (X2, P2, T2, R2), lead = _flat([X, P, T, R])
+        nx = self.model.state_dim
+        if (_is_vec(x, nx) and _is_vec(ref_pose, 3) and _is_vec(ref_twist, 3)
+                and _is_vec(ref_twist_rate, 3)):  # one state: a batch of one, no copies
+            X2, P2, T2, R2 = (x.reshape(1, nx), ref_pose.reshape(1, 3), ref_twist.reshape(1, 3),
+                              ref_twist_rate.reshape(1, 3))
+            lead: tuple[int, ...] = ()
+        else:
+            X = _batch(x, nx, "x")
+            P = _batch(ref_pose, 3, "ref_pose")
+            T = _batch(ref_twist, 3, "ref_twist")
+            R = _batch(ref_twist_rate, 3, "ref_twist_rate")
+            (X2, P2, T2, R2), lead = _flat([X, P, T, R])
         n = X2.shape[0]
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
         g = self.gains
         if self._tw:
-            _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
-                        self._mode, out, sat)
+            ok = _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
+                             self._mode, out, sat)
         elif self._ca:
-            _k_ca_track(X2, P2, T2, R2, self._p, self._tmax, self._gv, g.ctrl_dt, out, sat)
+            ok = _k_ca_track(X2, P2, T2, R2, self._p, self._tmax, self._gv, g.ctrl_dt, out, sat)
         else:
-            _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, self._gv, g.ctrl_dt,
-                        out, sat)
+            ok = _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, self._gv,
+                             g.ctrl_dt, out, sat)
+        if not ok:
+            raise ValueError("x and the reference must be finite")
+        if lead == ():
+            return out[0], sat[0]
         return out.reshape(lead + (self.model.input_dim,)), sat.reshape(lead)
 
     def act(self, state: Any, reference: Any) -> np.ndarray:

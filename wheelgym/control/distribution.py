@@ -386,27 +386,6 @@ def _distribute_one(J, Q, tmax, mode, out):  # pragma: no cover - compiled
     return STATUS_OK
 
 
-@njit(cache=True)
-def _one_distribute(J, Q, T, mode, out):  # pragma: no cover - compiled
-    """Single-configuration entry point: checks shapes and finiteness, then distributes.
-
-    Returns the status, or -9 on a bad input (the caller then takes the checked path).
-    """
-    m, k = J.shape
-    if Q.shape[0] != k or T.shape[0] != m or m < k:
-        return -9
-    for i in range(m):
-        if not (np.isfinite(T[i]) and T[i] > 0.0):
-            return -9
-        for a in range(k):
-            if not np.isfinite(J[i, a]):
-                return -9
-    for a in range(k):
-        if not np.isfinite(Q[a]):
-            return -9
-    return _distribute_one(J, Q, T, mode, out)
-
-
 _ONES: dict[int, np.ndarray] = {}
 
 
@@ -426,18 +405,36 @@ def _fast(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, int] | N
         T = tau_max
     else:
         return None
-    out = np.empty(m)
-    status = _one_distribute(J, Q, T, mode, out)
-    if status == -9 or (mode != 2 and status < 0):
+    if Q.shape[0] != J.shape[1] or J.shape[1] > m:
         return None
-    return out, status
+    out = np.empty((1, m))
+    status = np.empty(1, dtype=np.int64)
+    if not _k_distribute(J.reshape(1, m, -1), Q.reshape(1, -1), T.reshape(1, m), mode, out,
+                         status):
+        return None
+    if mode != 2 and status[0] < 0:
+        return None
+    return out[0], int(status[0])
 
 
 # ---------------------------------------------------------------------------- batch kernels
 @njit(cache=True)
 def _k_distribute(J, Q, T, mode, out, status):  # pragma: no cover - compiled
-    for n in range(J.shape[0]):
+    """False (computing nothing) unless J, Q are finite and T positive and finite."""
+    N, m, k = J.shape
+    for n in range(N):
+        for i in range(m):
+            if not (np.isfinite(T[n, i]) and T[n, i] > 0.0):
+                return False
+            for a in range(k):
+                if not np.isfinite(J[n, i, a]):
+                    return False
+        for a in range(k):
+            if not np.isfinite(Q[n, a]):
+                return False
+    for n in range(N):
         status[n] = _distribute_one(J[n], Q[n], T[n], mode, out[n])
+    return True
 
 
 @njit(cache=True)
@@ -508,7 +505,8 @@ def _k_paper(J, Q, S, Pdep, out, qs, ok):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------- public API
-def _check_JQ(J: Any, Q: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+def _check_JQ(J: Any, Q: Any, check_finite: bool = True
+              ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     J = np.asarray(J, dtype=np.float64)
     Q = np.asarray(Q, dtype=np.float64)
     if J.ndim < 2:
@@ -518,7 +516,7 @@ def _check_JQ(J: Any, Q: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
         raise ValueError(f"J must have at least as many rows (motors) as columns, got {J.shape}")
     if Q.ndim < 1 or Q.shape[-1] != k:
         raise ValueError(f"Q must have shape (..., {k}) to match J {J.shape}, got {Q.shape}")
-    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Q))):
+    if check_finite and not (np.all(np.isfinite(J)) and np.all(np.isfinite(Q))):
         raise ValueError("J and Q must be finite")
     lead = np.broadcast_shapes(J.shape[:-2], Q.shape[:-1])
     J2 = np.ascontiguousarray(np.broadcast_to(J, lead + (m, k)).reshape(-1, m, k))
@@ -541,12 +539,13 @@ def _run(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, np.ndarra
     fast = _fast(J, Q, tau_max, mode)
     if fast is not None:
         return fast[0], np.asarray(fast[1])
-    J2, Q2, lead = _check_JQ(J, Q)
+    J2, Q2, lead = _check_JQ(J, Q, check_finite=False)  # the kernel checks
     m = J2.shape[1]
     T2 = _check_tmax(1.0 if tau_max is None else tau_max, m, lead)
     out = np.empty((J2.shape[0], m))
     status = np.empty(J2.shape[0], dtype=np.int64)
-    _k_distribute(J2, Q2, T2, mode, out, status)
+    if not _k_distribute(J2, Q2, T2, mode, out, status):
+        raise ValueError("J and Q must be finite")
     if mode != 2 and np.any(status < 0):
         raise ValueError("J^T W J is singular: J has lost rank (a singular configuration)")
     return out.reshape(lead + (m,)), status.reshape(lead)
