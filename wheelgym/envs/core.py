@@ -26,7 +26,17 @@ from typing import Any
 import numpy as np
 
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
-from wheelgym.envs.robots._body import F_COLL, F_OK, F_SAT, F_SUCC, F_TERM, layout
+from wheelgym.envs.robots._body import (
+    F_COLL,
+    F_OK,
+    F_SAT,
+    F_SUCC,
+    F_TERM,
+    k_or_flags,
+    k_torque_ratio,
+    k_twist_command,
+    layout,
+)
 from wheelgym.integrators import n_substeps
 from wheelgym.registration import DEFAULT_HORIZON
 from wheelgym.tasks._kernels import k_noise
@@ -212,6 +222,7 @@ class WheelCore:
         self._tau = np.zeros((N, self.model.input_dim))
         self._anorm = np.zeros((N, self.model.input_dim))
         self._csat = np.zeros(N, dtype=np.bool_)
+        self._clipped = np.zeros(N, dtype=np.bool_)
 
     # ------------------------------------------------------------------ validation
     def _check_randomize(self, randomize) -> dict[str, tuple[float, float]]:
@@ -358,12 +369,11 @@ class WheelCore:
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
         if self._velocity:
-            if not np.isfinite(a).all():  # the clip below would hide an inf
+            if not k_twist_command(a, self.twist_max, self._cmd, self._clipped):
                 raise ValueError("action must be finite (got NaN or inf)")
-            np.clip(a, -1.0, 1.0, out=self._cmd)
-            self._cmd *= self.twist_max
             self._ctl_kernel(self.X, self._cmd, *self._ctl_args, self._tau, self._csat)
-            A = np.divide(self._tau, self.HI, out=self._anorm)
+            k_torque_ratio(self._tau, self.LH, self._anorm)
+            A = self._anorm
         else:
             A = a
         if not self.spec.k_env_step(self.X, A, self.LH, self.P, self.h, self.n_sub, self.Xo,
@@ -372,8 +382,7 @@ class WheelCore:
         if self._track:
             self.task.advance()
         if self._velocity:
-            self.sat |= self._csat
-            self.sat |= np.any(np.abs(a) > 1.0, axis=1)
+            k_or_flags(self.F, self._csat, self._clipped)
         self.X, self.Xo = self.Xo, self.X
         self.steps += 1
         self.task.evaluate()

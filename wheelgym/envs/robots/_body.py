@@ -148,3 +148,44 @@ def env_step_body(f, jrate, feats, X, A, LH, P, h, n, Xo, B, F):  # pragma: no c
         F[i, 1] = good
         b[o_p + 6] = feats(x, u, p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
     return True
+
+
+@njit(cache=True)
+def k_twist_command(a, scale, cmd, clipped):  # pragma: no cover - compiled
+    """Velocity mode: ``cmd = clip(a, -1, 1) * scale`` per row, ``clipped`` marks a clip.
+
+    Returns False (writing nothing) when an entry of ``a`` is not finite.
+    """
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            if not np.isfinite(a[i, j]):
+                return False
+    for i in range(a.shape[0]):
+        c = False
+        for j in range(a.shape[1]):
+            v = a[i, j]
+            if v > 1.0:
+                v = 1.0
+                c = True
+            elif v < -1.0:
+                v = -1.0
+                c = True
+            cmd[i, j] = v * scale[j]
+        clipped[i] = c
+    return True
+
+
+@njit(cache=True)
+def k_torque_ratio(tau, LH, A):  # pragma: no cover - compiled
+    """``A = tau / high`` per row: the controller's torques as normalised commands."""
+    m = tau.shape[1]
+    for i in range(tau.shape[0]):
+        for j in range(m):
+            A[i, j] = tau[i, j] / LH[i, m + j]
+
+
+@njit(cache=True)
+def k_or_flags(F, csat, clipped):  # pragma: no cover - compiled
+    """``F[:, 0] |= csat | clipped`` (saturation flag of the velocity mode)."""
+    for i in range(F.shape[0]):
+        F[i, 0] = F[i, 0] or csat[i] or clipped[i]
