@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from tests.envs.conftest import DYNAMIC, ROBOTS, TASKS, combos, make, modes
+from tests.envs.conftest import DYNAMIC, ROBOTS, TASKS, combos, make
 from wheelgym.envs.registration import env_id
 
 
@@ -58,8 +58,6 @@ def _same(a, b) -> bool:
 @pytest.mark.parametrize("task", TASKS)
 def test_same_seed_same_bits_and_seeds_differ(robot, task):
     kw = {"task": task, "randomize": True, "obs_noise": 0.01}
-    if not modes(robot)[0] == "torque" or robot in DYNAMIC:
-        kw["randomize"] = True if robot in DYNAMIC or robot in ("DiffDrive", "Unicycle") else None
     a = _rollout(make(robot, **kw), 3, 60)
     b = _rollout(make(robot, **kw), 3, 60)
     assert len(a) == len(b)
