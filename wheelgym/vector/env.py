@@ -170,6 +170,7 @@ class WheelVectorEnv(VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * N
         self._elapsed = np.zeros(N, dtype=np.int64)
         self._started = np.zeros(N, dtype=np.bool_)
+        self._ready = False  # every sub-env has been reset once
         self._autoreset = np.zeros(N, dtype=np.bool_)  # NEXT_STEP: rows to reset next step
         self._done = np.zeros(N, dtype=np.bool_)  # DISABLED: rows ended, not yet reset
         self._renderers: list[Any] | None = None
@@ -230,6 +231,7 @@ class WheelVectorEnv(VectorEnv):
         self.core.reset(rows, self._rngs, options)
         self._elapsed[rows] = 0
         self._started[rows] = True
+        self._ready = np.count_nonzero(self._started) == self.num_envs
         self._done[rows] = False
         if self._renderers is not None:
             for i, r in enumerate(self._renderers):
@@ -247,19 +249,19 @@ class WheelVectorEnv(VectorEnv):
         """
         c = self.core
         N = self.num_envs
-        if not self._started.all():
+        if not self._ready:
             raise RuntimeError("call reset() (on every sub-env) before step()")
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != c.A.shape:
             raise ValueError(f"actions must have shape {c.A.shape}, got {np.shape(actions)}")
         mode = self.autoreset_mode
-        if mode is AutoresetMode.DISABLED and self._done.any():
+        if mode is AutoresetMode.DISABLED and np.count_nonzero(self._done):
             raise RuntimeError(
                 f"sub-envs {np.flatnonzero(self._done).tolist()} ended; with autoreset_mode "
                 "DISABLED reset them with reset(options={'reset_mask': mask}) before step()")
         rr = self._autoreset if mode is AutoresetMode.NEXT_STEP else None
         active = None
-        if rr is not None and rr.any():
+        if rr is not None and np.count_nonzero(rr):
             rr = rr.copy()
             a = a.copy()
             a[rr] = 0.0  # ignored: those sub-envs reset instead of stepping
@@ -279,7 +281,8 @@ class WheelVectorEnv(VectorEnv):
             term[rr] = False
             trunc[rr] = False
             info = self._info(np.ones(N, dtype=np.bool_), rr)
-        elif mode is AutoresetMode.SAME_STEP and (term.any() or trunc.any()):
+        elif mode is AutoresetMode.SAME_STEP and (np.count_nonzero(term)
+                                                   or np.count_nonzero(trunc)):
             done = term | trunc
             step_info = self._info(np.ones(N, dtype=np.bool_), None)
             final_obs = np.full(N, None, dtype=object)
@@ -333,7 +336,7 @@ class WheelVectorEnv(VectorEnv):
             terms["_" + n] = masks[11 + j]
         info["reward_terms"] = terms
         info["_reward_terms"] = masks[10]
-        if reset is not None and reset.any():
+        if reset is not None and np.count_nonzero(reset):
             info.update(self._reset_info(reset))
         return info
 
@@ -384,7 +387,7 @@ class WheelVectorEnv(VectorEnv):
             logger.warn("render() called without a render_mode; pass render_mode='rgb_array' "
                         "to gym.make_vec")
             return None
-        if not self._started.all():
+        if not self._ready:
             raise RuntimeError("call reset() before render()")
         if self._renderers is None:
             from wheelgym.render import Renderer
