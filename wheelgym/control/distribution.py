@@ -77,7 +77,7 @@ _FEAS_TOL = 1e-9  # constraint tolerance in scaled torque units (fraction of tau
 
 
 # ---------------------------------------------------------------------------- small linear algebra
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _solve_inplace(A, b, n):  # pragma: no cover - compiled
     """Solve ``A x = b`` (n x n, partial pivoting); overwrites A, result in b. False if singular."""
     scale = 0.0
@@ -249,7 +249,7 @@ def _null_basis_one(A_T, N):  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _row(N, s0, r, m, nd, crow):  # pragma: no cover - compiled
     """Constraint r of ``C z <= d``: r < m is ``N_r z <= 1 - s0_r``, else ``-N_r z <= 1 + s0_r``."""
     if r < m:
@@ -339,26 +339,38 @@ def _limits_one(J, Q, tmax, out):  # pragma: no cover - compiled
     mu = np.empty(3)
     z = np.empty(nd)
     best_z = np.zeros(nd)
-    idx = np.empty(3, dtype=np.int64)
-    best = np.inf
+    # every set of at most nd constraints, never both bounds of one motor (one call site of
+    # _try_face keeps the compiled code small)
     nc = 2 * m
+    sets = np.empty((nc * (1 + nc + nc * nc), 3), dtype=np.int64)
+    sizes = np.empty(sets.shape[0], dtype=np.int64)
+    cnt = 0
     for a in range(nc):
-        idx[0] = a
-        best = _try_face(N, s0, idx, 1, m, nd, C, d, G, mu, z, best_z, best)
+        sets[cnt, 0] = a
+        sizes[cnt] = 1
+        cnt += 1
         if nd < 2:
             continue
         for b in range(a + 1, nc):
-            if b - a == m:  # both bounds of one motor
+            if b - a == m:
                 continue
-            idx[1] = b
-            best = _try_face(N, s0, idx, 2, m, nd, C, d, G, mu, z, best_z, best)
+            sets[cnt, 0] = a
+            sets[cnt, 1] = b
+            sizes[cnt] = 2
+            cnt += 1
             if nd < 3:
                 continue
             for c in range(b + 1, nc):
                 if c - a == m or c - b == m:
                     continue
-                idx[2] = c
-                best = _try_face(N, s0, idx, 3, m, nd, C, d, G, mu, z, best_z, best)
+                sets[cnt, 0] = a
+                sets[cnt, 1] = b
+                sets[cnt, 2] = c
+                sizes[cnt] = 3
+                cnt += 1
+    best = np.inf
+    for q in range(cnt):
+        best = _try_face(N, s0, sets[q], sizes[q], m, nd, C, d, G, mu, z, best_z, best)
     if best == np.inf:
         for i in range(m):
             out[i] /= worst
