@@ -117,7 +117,9 @@ def _reach_time(model, ctl, x0, cmd, idx, horizon=0.4, band=0.02):
             times.append((k * n + j + 1) * h)
             errs.append(np.linalg.norm(x[idx] - cmd) / np.linalg.norm(cmd))
     bad = np.nonzero(np.array(errs) > band)[0]
-    return times[bad[-1] + 1] if len(bad) else times[0]
+    if len(bad) == 0:
+        return times[0]
+    return times[bad[-1] + 1] if bad[-1] + 1 < len(times) else np.inf
 
 
 @pytest.mark.parametrize("cmd", [(0.5, 0.0, 0.0), (0.0, 0.3, 0.0), (0.0, 0.0, 1.0),
