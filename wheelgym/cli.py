@@ -213,6 +213,8 @@ def _cmd_demo(a: argparse.Namespace) -> int:
     from wheelgym.agents.policies import make_baseline
 
     env_id = a.env_id if "/" in a.env_id else f"wheelgym/{a.env_id}"
+    if env_id not in gym.registry and f"{env_id}-v0" in gym.registry:
+        env_id = f"{env_id}-v0"  # "ThreeWheel" -> "wheelgym/ThreeWheel-v0"
     if env_id not in gym.registry:
         known = sorted(k for k in gym.registry if k.startswith("wheelgym/"))
         raise ValueError(f"unknown id {a.env_id!r}; valid ids: {known}")
