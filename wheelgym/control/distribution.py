@@ -249,7 +249,7 @@ def _null_basis_one(A_T, N):  # pragma: no cover - compiled
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _row(N, s0, r, m, nd, crow):  # pragma: no cover - compiled
     """Constraint r of ``C z <= d``: r < m is ``N_r z <= 1 - s0_r``, else ``-N_r z <= 1 + s0_r``."""
     if r < m:
@@ -262,7 +262,7 @@ def _row(N, s0, r, m, nd, crow):  # pragma: no cover - compiled
     return 1.0 + s0[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _try_face(N, s0, idx, n_act, m, nd, C, d, G, mu, z, best_z, best):  # pragma: no cover
     """Project the origin onto ``{C_S z = d_S}``; keep it if feasible and shorter than best."""
     for a in range(n_act):
@@ -342,7 +342,7 @@ def _limits_one(J, Q, tmax, out):  # pragma: no cover - compiled
     # every set of at most nd constraints, never both bounds of one motor (one call site of
     # _try_face keeps the compiled code small)
     nc = 2 * m
-    sets = np.empty((nc * (1 + nc + nc * nc), 3), dtype=np.int64)
+    sets = np.empty((nc + nc * (nc - 1) // 2 + nc * (nc - 1) * (nc - 2) // 6, 3), dtype=np.int64)
     sizes = np.empty(sets.shape[0], dtype=np.int64)
     cnt = 0
     for a in range(nc):
