@@ -153,10 +153,14 @@ def test_unregistered_env_id_is_named():
         make_train_env(cfg)
 
 
-def test_bad_env_kwarg_is_named():
-    cfg = parse_config(_with("wheelgym", "env_kwargs", {"task": "fly"}))
-    with pytest.raises(ValueError, match="task"):
-        make_train_env(cfg)
+@pytest.mark.parametrize("vec_env", ["dummy", "native"])
+@pytest.mark.parametrize(("env_kwargs", "named"), [({"task": "fly"}, "task"),
+                                                   ({"tsk": "goal"}, "tsk")])
+def test_bad_env_kwarg_is_named(vec_env, env_kwargs, named):
+    data = _with("wheelgym", "env_kwargs", env_kwargs)
+    data["wheelgym"]["vec_env"] = vec_env
+    with pytest.raises(ValueError, match=named):
+        make_train_env(parse_config(data))
 
 
 @pytest.mark.parametrize("algo", ALGOS)

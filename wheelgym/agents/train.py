@@ -106,7 +106,10 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
             raise ValueError(
                 f"{config.source}: vec_env 'native' needs wheelgym.vector.make_sb3_vec_env: {e}"
             ) from None
-        venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed, **config.env_kwargs)
+        try:
+            venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed, **config.env_kwargs)
+        except TypeError as e:
+            raise ValueError(f"{config.source}: env_kwargs {config.env_kwargs}: {e}") from e
         venv.action_space.seed(seed)
     else:
         env_id, kwargs = config.env_id, dict(config.env_kwargs)
