@@ -23,6 +23,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numba
 import numpy as np
 
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
@@ -32,6 +33,7 @@ from wheelgym.envs.robots._body import (
     F_SAT,
     F_SUCC,
     F_TERM,
+    PAR_MIN_ROWS,
     k_or_flags,
     k_torque_ratio,
     k_twist_command,
@@ -142,6 +144,12 @@ class WheelCore:
         self.vclip = 2.0 * spec.v_max
         self.wclip = 2.0 * spec.w_max
         self.fclip = np.array(spec.feat_high, dtype=np.float64)
+
+        # the step kernel: rows spread over numba's threads for large batches (same bits per
+        # row); the serial kernel below PAR_MIN_ROWS or with NUMBA_NUM_THREADS=1, so the single
+        # env never starts numba's threads (read from the config: asking numba starts them)
+        par = N >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
+        self._k_step = spec.k_env_step_par if par else spec.k_env_step
 
         # per-row state
         self.X = np.zeros((N, nx))
@@ -312,7 +320,7 @@ class WheelCore:
         Fs = self.F.copy()
         Bs[:, 2 * self.m] = 0.0  # the pass adds no work; keep the energy column clean
         A0 = np.zeros((N, self.m))
-        self.spec.k_env_step(self.X, A0, self.LH, self.P, self.h, 0, self.Xo.copy(), Bs, Fs)
+        self._k_step(self.X, A0, self.LH, self.P, self.h, 0, self.Xo.copy(), Bs, Fs)
         for k in ("pose", "twist", "feat", "jv"):
             getattr(self, k)[idx] = Bs[idx][:, self._lay[k]]
         self.U[idx] = 0.0
@@ -376,8 +384,8 @@ class WheelCore:
             A = self._anorm
         else:
             A = a
-        if not self.spec.k_env_step(self.X, A, self.LH, self.P, self.h, self.n_sub, self.Xo,
-                                    self.B, self.F):
+        if not self._k_step(self.X, A, self.LH, self.P, self.h, self.n_sub, self.Xo, self.B,
+                            self.F):
             raise ValueError("action must be finite (got NaN or inf)")
         if self._track:
             self.task.advance()

@@ -10,9 +10,15 @@ uses its own parameter row ``P[i]``, so a batch of N robots gives each robot the
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-__all__ = ["env_step_body", "rk4_work"]
+__all__ = ["env_step_body", "env_step_body_par", "env_step_row", "rk4_work", "PAR_MIN_ROWS"]
+
+#: Batch size from which the environments step with the threaded kernel ``k_env_step_par``
+#: (below it the serial ``k_env_step``; the single env, N = 1, never starts numba's threads).
+#: Chosen by measurement (benchmarks/vector.py): below ~256 rows the threads' launch
+#: overhead (~10-20 us a call) eats the gain.
+PAR_MIN_ROWS = 256
 
 
 @njit(cache=True, inline="always")
@@ -71,6 +77,63 @@ F_SAT, F_OK, F_TERM, F_SUCC, F_COLL = range(5)
 
 
 @njit(cache=True, inline="always")
+def _actions_finite(A):  # pragma: no cover - compiled
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            if not np.isfinite(A[i, j]):
+                return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover
+    """Row ``i`` of :func:`env_step_body` (``work``: ``(5, n_x)`` scratch of this row)."""
+    m = A.shape[1]
+    nx = X.shape[1]
+    o_e = 2 * m
+    o_p = 2 * m + 2
+    o_f = 2 * m + 11
+    nb = B.shape[1]
+    s = False
+    e = 0.0
+    b = B[i]
+    for j in range(m):
+        a = A[i, j]
+        if a > 1.0:
+            a = 1.0
+            s = True
+        elif a < -1.0:
+            a = -1.0
+            s = True
+        e += a * a
+        b[j] = 0.5 * (LH[i, m + j] + LH[i, j]) + 0.5 * a * (LH[i, m + j] - LH[i, j])
+    F[i, 0] = s
+    b[o_e + 1] = e / m if m > 0 else 0.0
+    x = Xo[i]
+    for k in range(nx):
+        x[k] = X[i, k]
+    u = b[0:m]
+    p = P[i]
+    jr = b[m:2 * m]
+    acc = 0.0
+    for _ in range(n):
+        acc += rk4_work(f, jrate, x, u, p, h, work, jr)
+    jrate(x, p, jr)
+    good = np.isfinite(acc)
+    for k in range(nx):
+        if not np.isfinite(x[k]):
+            good = False
+    if not good:
+        for k in range(nx):
+            x[k] = X[i, k]
+        jrate(x, p, jr)
+    else:
+        b[o_e] += acc
+    F[i, 1] = good
+    b[o_p + 6] = feats(x, u, p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
+
+
+@njit(cache=True, inline="always")
 def env_step_body(f, jrate, feats, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     """Scale actions, integrate one control period, accumulate motor work, extract features.
 
@@ -97,56 +160,31 @@ def env_step_body(f, jrate, feats, X, A, LH, P, h, n, Xo, B, F):  # pragma: no c
     Returns:
         False when an action entry is not finite (nothing is written then).
     """
-    N = X.shape[0]
-    m = A.shape[1]
-    nx = X.shape[1]
-    for i in range(N):
-        for j in range(m):
-            if not np.isfinite(A[i, j]):
-                return False
-    work = np.empty((5, nx))
-    o_e = 2 * m
-    o_p = 2 * m + 2
-    o_f = 2 * m + 11
-    nb = B.shape[1]
-    for i in range(N):
-        s = False
-        e = 0.0
-        b = B[i]
-        for j in range(m):
-            a = A[i, j]
-            if a > 1.0:
-                a = 1.0
-                s = True
-            elif a < -1.0:
-                a = -1.0
-                s = True
-            e += a * a
-            b[j] = 0.5 * (LH[i, m + j] + LH[i, j]) + 0.5 * a * (LH[i, m + j] - LH[i, j])
-        F[i, 0] = s
-        b[o_e + 1] = e / m if m > 0 else 0.0
-        x = Xo[i]
-        for k in range(nx):
-            x[k] = X[i, k]
-        u = b[0:m]
-        p = P[i]
-        jr = b[m:2 * m]
-        acc = 0.0
-        for _ in range(n):
-            acc += rk4_work(f, jrate, x, u, p, h, work, jr)
-        jrate(x, p, jr)
-        good = np.isfinite(acc)
-        for k in range(nx):
-            if not np.isfinite(x[k]):
-                good = False
-        if not good:
-            for k in range(nx):
-                x[k] = X[i, k]
-            jrate(x, p, jr)
-        else:
-            b[o_e] += acc
-        F[i, 1] = good
-        b[o_p + 6] = feats(x, u, p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
+    if not _actions_finite(A):
+        return False
+    work = np.empty((5, X.shape[1]))
+    for i in range(X.shape[0]):
+        env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    return True
+
+
+@njit(cache=True, inline="always")
+def env_step_body_par(row, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    """:func:`env_step_body` with the rows spread over numba's threads (``prange``), for
+    large batches; bound into a ``parallel=True`` kernel ``k_env_step_par``.
+
+    ``row(i, X, A, LH, P, h, n, Xo, B, F, work)`` is the robot's compiled (not inlined) kernel
+    around :func:`env_step_row`: the parfor passes would otherwise analyse the inlined model
+    code, which numba's array analysis rejects for some models (ThreeWheel's tuple helpers).
+    Each row runs the same row code on its own scratch, so every row's bits equal the serial
+    kernel's. The finiteness check of the actions stays a serial pass first (nothing is
+    written when it fails).
+    """
+    if not _actions_finite(A):
+        return False
+    for i in prange(X.shape[0]):
+        work = np.empty((5, X.shape[1]))
+        row(i, X, A, LH, P, h, n, Xo, B, F, work)
     return True
 
 

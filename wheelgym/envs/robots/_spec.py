@@ -27,6 +27,9 @@ class RobotSpec:
         model_cls: the :class:`~wheelgym.models.Model` subclass.
         k_env_step: compiled ``k_env_step(X, A, LH, P, h, n, Xo, B, F) -> bool`` (see
             ``_body.env_step_body``).
+        k_env_step_par: the same kernel with the rows spread over numba's threads
+            (``parallel=True``, ``_body.env_step_body_par``; same bits per row), used from
+            ``_body.PAR_MIN_ROWS`` rows.
         input_bounds: ``input_bounds(params, mode) -> (lo, hi)`` physical bounds of the
             action in that action mode (torques N·m, or the kinematic inputs).
         action_modes: valid ``action_mode`` values, the default first.
@@ -47,6 +50,7 @@ class RobotSpec:
     name: str
     model_cls: type[Model]
     k_env_step: Any
+    k_env_step_par: Any
     input_bounds: Callable[[Params, str], tuple[np.ndarray, np.ndarray]]
     action_modes: tuple[str, ...]
     twist_dim: int

@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
-from wheelgym.envs.robots._body import env_step_body
+from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.models.caster_agv import _C, _R, CasterAGV, CasterAGVParams, _deriv_one
 
@@ -41,6 +41,16 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
+    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+
+
+@njit(cache=True, parallel=True)
+def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_body_par(k_env_row, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params: CasterAGVParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
@@ -75,6 +85,7 @@ SPEC = RobotSpec(
     name="CasterAGV",
     model_cls=CasterAGV,
     k_env_step=k_env_step,
+    k_env_step_par=k_env_step_par,
     input_bounds=_input_bounds,
     action_modes=("torque",),  # no twist controller for CasterAGV (wheelgym.control)
     twist_dim=2,

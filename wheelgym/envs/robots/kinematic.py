@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
-from wheelgym.envs.robots._body import env_step_body
+from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.models.kinematic import (
     Ackermann,
@@ -53,6 +53,16 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
+    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+
+
+@njit(cache=True, parallel=True)
+def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_body_par(k_env_row, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params, mode):  # the core asks the model instance instead
@@ -100,7 +110,8 @@ def _wheels_ack(x, p):
 
 def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None) -> RobotSpec:
     return RobotSpec(
-        name=name, model_cls=cls, k_env_step=k_env_step, input_bounds=_input_bounds,
+        name=name, model_cls=cls, k_env_step=k_env_step,
+        k_env_step_par=k_env_step_par, input_bounds=_input_bounds,
         action_modes=tuple(cls.input_modes), twist_dim=2, twist_max=(1.0, 2.0),
         v_max=10.0, w_max=20.0, feat_names=feats, feat_high=(1.0,) * len(feats), radius=0.35,
         randomize=randomize or {}, default_randomize=default or {},

@@ -1,0 +1,77 @@
+"""The threaded step kernel (``k_env_step_par``, used from ``PAR_MIN_ROWS`` rows) against the
+serial one: every row's bits must be the same, and small batches must stay serial."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numba
+import numpy as np
+import pytest
+
+from wheelgym.envs.core import WheelCore
+from wheelgym.envs.robots import available_robots, get_spec
+from wheelgym.envs.robots._body import PAR_MIN_ROWS
+
+N = PAR_MIN_ROWS + 7  # above the threshold, not a multiple of the thread count
+
+
+def _run(kernel, core, A, n_sub):
+    Xo = np.full_like(core.X, -7.0)
+    B = core.B.copy()
+    F = core.F.copy()
+    ok = kernel(core.X, A, core.LH, core.P, core.h, n_sub, Xo, B, F)
+    return ok, Xo, B, F
+
+
+def _same_bits(a, b) -> bool:
+    return a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8))
+
+
+@pytest.mark.parametrize("robot", available_robots())
+def test_parallel_kernel_same_bits_as_serial(robot):
+    spec = get_spec(robot)
+    core = WheelCore(robot, N, randomize=True if spec.default_randomize else None)
+    assert core._k_step is spec.k_env_step_par
+    core.reset(None, [np.random.default_rng(i) for i in range(N)])
+    rng = np.random.default_rng(3)
+    core.X[5, 3:] = np.inf  # a row whose step fails: restored, F_OK False
+    for step in range(3):
+        A = rng.uniform(-1.5, 1.5, (N, core.m))  # inside and outside [-1, 1]
+        s = _run(spec.k_env_step, core, A, core.n_sub)
+        p = _run(spec.k_env_step_par, core, A, core.n_sub)
+        assert s[0] and p[0]
+        for a, b in zip(s[1:], p[1:], strict=True):
+            assert _same_bits(a, b), f"{robot} step {step}"
+        if spec.n_motor and step == 0:
+            assert not s[3][5, 1] and s[3][:, 0].any()  # the failure and clipping paths ran
+        core.X[:] = s[1]
+    # a non-finite action: nothing is written, as in the serial kernel
+    A[N - 1, 0] = np.nan
+    p = _run(spec.k_env_step_par, core, A, core.n_sub)
+    assert not p[0] and (p[1] == -7.0).all() and _same_bits(p[2], core.B)
+
+
+def test_core_dispatch_on_batch_size(monkeypatch):
+    spec = get_spec("SkidSteer")
+    assert WheelCore("SkidSteer", 1)._k_step is spec.k_env_step
+    assert WheelCore("SkidSteer", PAR_MIN_ROWS - 1)._k_step is spec.k_env_step
+    assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_step_par
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_step
+
+
+def test_single_env_starts_no_numba_threads():
+    code = (
+        "import gymnasium as gym, numpy as np, wheelgym\n"
+        "import numba.np.ufunc.parallel as par\n"
+        "env = gym.make('wheelgym/ThreeWheel-v0')\n"
+        "env.reset(seed=0)\n"
+        "for _ in range(3):\n"
+        "    env.step(env.action_space.sample())\n"
+        "print(par._is_initialized)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=300)
+    assert out.stdout.strip().splitlines()[-1] == "False"
