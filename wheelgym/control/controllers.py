@@ -41,8 +41,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
-from wheelgym.control import _cache
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
 from wheelgym.integrators import all_finite
@@ -54,7 +54,7 @@ from wheelgym.models.caster_agv import CasterAGV
 from wheelgym.models.skid_steer import SkidSteer
 from wheelgym.models.three_wheel import ThreeWheel
 
-_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _ca.__file__,
+_numba_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _ca.__file__,
              _friction.__file__, _integrators.__file__)
 
 __all__ = [

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
-from wheelgym.control import _cache
 from wheelgym.control import controllers as _controllers
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.controllers import _tw_force
@@ -33,7 +33,7 @@ from wheelgym.tasks.references import QuinticCircle
 
 __all__ = ["paper_experiment"]
 
-_cache.guard(__file__, _controllers.__file__, _distribution.__file__, _tw.__file__,
+_numba_cache.guard(__file__, _controllers.__file__, _distribution.__file__, _tw.__file__,
              _friction.__file__, _integrators.__file__)
 
 

@@ -51,6 +51,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit, prange
 
+from wheelgym import _numba_cache
+from wheelgym import integrators as _integrators
 from wheelgym.integrators import (
     DERIV1_SIG,
     STEP1_SIG,
@@ -60,8 +62,12 @@ from wheelgym.integrators import (
     finite_status,
     rk4_inplace,
 )
+from wheelgym.models import friction as _friction
 from wheelgym.models._base import Model, Params
 from wheelgym.models.friction import sgn_s
+
+# kernels here inline integrators.rk4_inplace and friction.sgn_s
+_numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
 
 __all__ = ["CasterAGVParams", "CasterAGV"]
 

@@ -35,6 +35,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit, prange
 
+from wheelgym import _numba_cache
+from wheelgym import integrators as _integrators
 from wheelgym.integrators import (
     DERIV1_SIG,
     STEP1_SIG,
@@ -45,6 +47,9 @@ from wheelgym.integrators import (
     rk4_inplace,
 )
 from wheelgym.models._base import Model, Params
+
+# kernels here inline integrators.rk4_inplace
+_numba_cache.guard(__file__, _integrators.__file__)
 
 __all__ = [
     "KinematicModel",

@@ -1,11 +1,13 @@
-"""Keep the numba disk cache of the control kernels consistent with the files they inline.
+"""Keep numba's disk cache consistent with the files a cached kernel inlines.
 
-numba keys a cached kernel on its own source file only. The controller kernels inline the
-models' compiled pieces (``wheelgym.models.three_wheel``, ``skid_steer``, ``friction``) and
-the distribution functions, so an edit there would otherwise leave a stale compiled kernel
-(seen in practice: a kernel cached against a temporarily edited model kept the old physics).
-:func:`guard` records the sizes and modification times of the dependencies next to the cache
-and drops the module's cache files when they change.
+numba keys a cached kernel on its own source file only. wheelgym's kernels inline compiled
+pieces from other files (every model inlines ``integrators.rk4_inplace`` and
+``friction.sgn_s``; the environment and controller kernels inline the models' derivatives), so
+an edit there would otherwise leave a stale compiled kernel (seen in practice: a kernel cached
+against a temporarily edited model kept the old physics). :func:`guard`, called at import by
+each such module, records the sizes and modification times of its dependencies next to the
+cache and drops the module's cache files when they change. A fresh checkout has no cache, so
+this only matters to someone editing the package.
 """
 
 from __future__ import annotations
