@@ -57,8 +57,9 @@ class CasterAGVEnv(WheelEnv):
     state (body origin at the axle midpoint).
 
     ## Action Space
-    ``torque`` only: ``Box(-1, 1, (2,))``, ``tau = a * 6 N·m`` (left, right). (No twist
-    controller exists for this robot yet.)
+    ``torque``: ``Box(-1, 1, (2,))``, ``tau = a * 6 N·m`` (left, right). ``velocity``:
+    ``Box(-1, 1, (2,))``, ``(v, w) = a * (1.0 m/s, 2.0 rad/s)`` of the axle midpoint, tracked by
+    :class:`wheelgym.control.TwistController`.
 
     Robot features: cos sigma, sin sigma (caster swivel angle). Speed limits: 2.0 m/s, 5 rad/s.
     """

@@ -215,6 +215,7 @@ class WheelCore:
         """The controller's compiled batch kernel and its arguments (its ``torques`` method
         without the per-call Python checks, which cost ~20x the kernel at N = 1)."""
         from wheelgym.control import controllers as C
+        from wheelgym.models.caster_agv import CasterAGV
         from wheelgym.models.three_wheel import ThreeWheel
 
         ctl = self.controller
@@ -222,6 +223,9 @@ class WheelCore:
         if isinstance(self.model, ThreeWheel):
             self._ctl_kernel = C._k_tw_twist
             self._ctl_args = (ctl._p, ctl._tmax, g.k_v, g.ctrl_dt, ctl._mode)
+        elif isinstance(self.model, CasterAGV):
+            self._ctl_kernel = C._k_ca_twist
+            self._ctl_args = (ctl._p, ctl._tmax, g.k_v, g.ctrl_dt)
         else:
             self._ctl_kernel = C._k_ss_twist
             self._ctl_args = (ctl._p, ctl._tmax, ctl._frac, g.k_v, g.ctrl_dt)
