@@ -10,6 +10,7 @@ import numba
 import numpy as np
 import pytest
 
+from wheelgym.envs._dispatch import FasterKernel
 from wheelgym.envs.core import WheelCore
 from wheelgym.envs.robots import available_robots, get_spec
 from wheelgym.envs.robots._body import PAR_MIN_ROWS
@@ -33,7 +34,7 @@ def _same_bits(a, b) -> bool:
 def test_parallel_kernel_same_bits_as_serial(robot):
     spec = get_spec(robot)
     core = WheelCore(robot, N, randomize=True if spec.default_randomize else None)
-    assert core._k_step is spec.k_env_step_par
+    assert core._k_step.kernels == (spec.k_env_step, spec.k_env_step_par)
     core.reset(None, [np.random.default_rng(i) for i in range(N)])
     rng = np.random.default_rng(3)
     core.X[5, 3:] = np.inf  # a row whose step fails: restored, F_OK False
@@ -57,7 +58,7 @@ def test_core_dispatch_on_batch_size(monkeypatch):
     spec = get_spec("SkidSteer")
     assert WheelCore("SkidSteer", 1)._k_step is spec.k_env_step
     assert WheelCore("SkidSteer", PAR_MIN_ROWS - 1)._k_step is spec.k_env_step
-    assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_step_par
+    assert isinstance(WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step, FasterKernel)
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
     assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_step
 
@@ -75,3 +76,43 @@ def test_single_env_starts_no_numba_threads():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=300)
     assert out.stdout.strip().splitlines()[-1] == "False"
+
+
+class _Clock:
+    """A fake seconds counter that each fake kernel advances by its cost."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_faster_kernel_follows_the_cheaper_kernel():
+    clock = _Clock()
+    cost = {"serial": 1.0, "parallel": 3.0}
+    log = []
+
+    def kernel(name):
+        def run(x):
+            clock.t += cost[name]
+            log.append(name)
+            return x + 1
+
+        return run
+
+    fk = FasterKernel(kernel("serial"), kernel("parallel"), probe_min=4, probe_max=32,
+                      clock=clock)
+    assert [fk(i) for i in range(4)] == [1, 2, 3, 4]  # outputs pass through
+    assert log == ["parallel", "parallel", "serial", "serial"]
+    assert fk.best == 0  # serial measured cheaper
+    log.clear()
+    for i in range(200):
+        fk(i)
+    # probes of the losing threaded kernel back off: 4, 8, 16, 32, 32... calls apart
+    assert log.count("parallel") == 8 and fk.interval == 32
+    cost["parallel"] = 0.5  # the other cores became free
+    log.clear()
+    for i in range(40):
+        fk(i)
+    assert fk.best == 1 and log[-1] == "parallel" and fk.interval > 4  # serial backs off

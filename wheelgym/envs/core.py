@@ -26,6 +26,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from wheelgym.envs._dispatch import FasterKernel
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
 from wheelgym.envs.robots._body import (
     F_COLL,
@@ -145,11 +146,13 @@ class WheelCore:
         self.wclip = 2.0 * spec.w_max
         self.fclip = np.array(spec.feat_high, dtype=np.float64)
 
-        # the step kernel: rows spread over numba's threads for large batches (same bits per
-        # row); the serial kernel below PAR_MIN_ROWS or with NUMBA_NUM_THREADS=1, so the single
-        # env never starts numba's threads (read from the config: asking numba starts them)
+        # the step kernel: for large batches the faster (timed in use) of the serial kernel and
+        # the one spreading rows over numba's threads (same bits per row, _dispatch.py); the
+        # serial kernel below PAR_MIN_ROWS or with NUMBA_NUM_THREADS=1, so the single env never
+        # starts numba's threads (read from the config: asking numba starts them)
         par = N >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
-        self._k_step = spec.k_env_step_par if par else spec.k_env_step
+        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if par \
+            else spec.k_env_step
 
         # per-row state
         self.X = np.zeros((N, nx))
@@ -324,7 +327,7 @@ class WheelCore:
         Fs = self.F.copy()
         Bs[:, 2 * self.m] = 0.0  # the pass adds no work; keep the energy column clean
         A0 = np.zeros((N, self.m))
-        self._k_step(self.X, A0, self.LH, self.P, self.h, 0, self.Xo.copy(), Bs, Fs)
+        self.spec.k_env_step(self.X, A0, self.LH, self.P, self.h, 0, self.Xo.copy(), Bs, Fs)
         for k in ("pose", "twist", "feat", "jv"):
             getattr(self, k)[idx] = Bs[idx][:, self._lay[k]]
         self.U[idx] = 0.0
