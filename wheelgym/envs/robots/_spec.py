@@ -72,31 +72,13 @@ class RobotSpec:
 def guard_cache(module_file: str, *deps: str) -> None:
     """Drop a robot module's numba cache when a file its kernels inline has changed.
 
-    numba keys a cached kernel on its own source file only; the robot kernels inline the
-    model's derivative and ``_body.env_step_body`` from other files, so an edit there would
-    otherwise leave a stale compiled kernel. ``deps`` are module file paths; their sizes and
-    modification times are recorded next to the cache.
+    The robot kernels inline the model's derivative and ``_body.env_step_body`` from other
+    files; see :mod:`wheelgym._numba_cache`. ``_body.py`` is always a dependency.
     """
-    import glob
     import os
 
-    here = os.path.dirname(os.path.abspath(module_file))
-    stem = os.path.splitext(os.path.basename(module_file))[0]
-    cache_dir = os.path.join(here, "__pycache__")
-    files = [os.path.abspath(module_file), os.path.join(here, "_body.py"), *deps]
-    stamp = ";".join(f"{f}:{os.stat(f).st_size}:{os.stat(f).st_mtime_ns}" for f in files)
-    marker = os.path.join(cache_dir, f"{stem}.deps")
-    try:
-        with open(marker) as fh:
-            if fh.read() == stamp:
-                return
-    except OSError:
-        pass
-    try:
-        for f in glob.glob(os.path.join(cache_dir, f"{stem}.*.nb[ic]")):
-            os.remove(f)
-        os.makedirs(cache_dir, exist_ok=True)
-        with open(marker, "w") as fh:
-            fh.write(stamp)
-    except OSError:  # read-only install: numba then compiles in memory or uses its own dir
-        pass
+    from wheelgym import _numba_cache
+
+    body = os.path.join(os.path.dirname(os.path.abspath(module_file)), "_body.py")
+    _numba_cache.guard(module_file, body, *deps)
+
