@@ -91,6 +91,15 @@ def _check_range(obj: Params, name: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _check_steering_angle(obj: Params) -> None:
+    """Car-like models: the steering limit must lie in (0, pi/2) (``tan`` of it is finite)."""
+    if not obj.max_steering_angle < math.pi / 2:
+        raise ValueError(
+            f"{type(obj).__name__}.max_steering_angle must be in (0, pi/2), "
+            f"got {obj.max_steering_angle!r}"
+        )
+
+
 def _intersect(obj: Params, a: tuple[float, float], b: tuple[float, float], what: str):
     lo, hi = max(a[0], b[0]), min(a[1], b[1])
     if lo > hi:
@@ -157,11 +166,7 @@ class BicycleParams(Params):
 
     def _check(self) -> None:
         _check_range(self, "speed_range")
-        if not self.max_steering_angle < math.pi / 2:
-            raise ValueError(
-                f"BicycleParams.max_steering_angle must be in (0, pi/2), "
-                f"got {self.max_steering_angle!r}"
-            )
+        _check_steering_angle(self)
 
     def pack(self) -> np.ndarray:
         p = np.zeros(_NP)
@@ -235,11 +240,7 @@ class AckermannParams(Params):
 
     def _check(self) -> None:
         _check_range(self, "speed_range")
-        if not self.max_steering_angle < math.pi / 2:
-            raise ValueError(
-                f"AckermannParams.max_steering_angle must be in (0, pi/2), "
-                f"got {self.max_steering_angle!r}"
-            )
+        _check_steering_angle(self)
 
     def pack(self) -> np.ndarray:
         p = np.zeros(_NP)
