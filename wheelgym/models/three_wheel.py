@@ -541,6 +541,22 @@ def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
     return True
 
 
+@njit(cache=True, inline="always")
+def _put_sym3(out, upper):  # pragma: no cover - compiled
+    """Write the symmetric 3x3 matrix whose upper triangle is
+    ``upper = (a00, a01, a02, a11, a12, a22)`` into ``out``."""
+    a00, a01, a02, a11, a12, a22 = upper
+    out[0, 0] = a00
+    out[0, 1] = a01
+    out[1, 0] = a01
+    out[0, 2] = a02
+    out[2, 0] = a02
+    out[1, 1] = a11
+    out[1, 2] = a12
+    out[2, 1] = a12
+    out[2, 2] = a22
+
+
 # Batched kernels of the pieces: PSI (N, 3), V (N, 3) body twists.
 @njit(cache=True)
 def _k_psi_pieces(PSI, p, jac, mass, loads, centers, fjac):  # pragma: no cover - compiled
@@ -556,26 +572,8 @@ def _k_psi_pieces(PSI, p, jac, mass, loads, centers, fjac):  # pragma: no cover 
                 jac[k, 3 + i, j] = js[j]
             centers[k, i, 0] = p[_A1X + 2 * i] - d * cs[2 * i]  # p_i = a_i - d e_i
             centers[k, i, 1] = p[_A1Y + 2 * i] - d * cs[2 * i + 1]
-        m00, m01, m02, m11, m12, m22 = _mass(cs, p)
-        mass[k, 0, 0] = m00
-        mass[k, 0, 1] = m01
-        mass[k, 1, 0] = m01
-        mass[k, 0, 2] = m02
-        mass[k, 2, 0] = m02
-        mass[k, 1, 1] = m11
-        mass[k, 1, 2] = m12
-        mass[k, 2, 1] = m12
-        mass[k, 2, 2] = m22
-        e00, e01, e02, e11, e12, e22 = _friction_jac_rest(cs, p)
-        fjac[k, 0, 0] = e00
-        fjac[k, 0, 1] = e01
-        fjac[k, 1, 0] = e01
-        fjac[k, 0, 2] = e02
-        fjac[k, 2, 0] = e02
-        fjac[k, 1, 1] = e11
-        fjac[k, 1, 2] = e12
-        fjac[k, 2, 1] = e12
-        fjac[k, 2, 2] = e22
+        _put_sym3(mass[k], _mass(cs, p))
+        _put_sym3(fjac[k], _friction_jac_rest(cs, p))
         n1, n2, n3 = _loads(cs, p)
         loads[k, 0] = n1
         loads[k, 1] = n2
