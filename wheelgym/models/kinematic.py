@@ -91,6 +91,15 @@ def _check_range(obj: Params, name: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _check_wheel_speeds(obj: Params) -> None:
+    """Wheeled models: both ranges are (low, high) pairs and the vehicle-speed range overlaps
+    the speeds the wheels can reach (``wheel_radius * wheel_speed_range``)."""
+    _check_range(obj, "speed_range")
+    _check_range(obj, "wheel_speed_range")
+    _intersect(obj, obj.speed_range, obj.wheel_radius * np.asarray(obj.wheel_speed_range),
+               "speed_range and wheel_radius * wheel_speed_range")
+
+
 def _check_steering_angle(obj: Params) -> None:
     """Car-like models: the steering limit must lie in (0, pi/2) (``tan`` of it is finite)."""
     if not obj.max_steering_angle < math.pi / 2:
@@ -131,10 +140,7 @@ class UnicycleParams(Params):
     _kind: ClassVar[int] = _K_UNI
 
     def _check(self) -> None:
-        _check_range(self, "speed_range")
-        _check_range(self, "wheel_speed_range")
-        _intersect(self, self.speed_range, self.wheel_radius * np.asarray(self.wheel_speed_range),
-                   "speed_range and wheel_radius * wheel_speed_range")
+        _check_wheel_speeds(self)
 
     def pack(self) -> np.ndarray:
         p = np.zeros(_NP)
@@ -198,10 +204,7 @@ class DifferentialDriveParams(Params):
     _kind: ClassVar[int] = _K_DD
 
     def _check(self) -> None:
-        _check_range(self, "speed_range")
-        _check_range(self, "wheel_speed_range")
-        _intersect(self, self.speed_range, self.wheel_radius * np.asarray(self.wheel_speed_range),
-                   "speed_range and wheel_radius * wheel_speed_range")
+        _check_wheel_speeds(self)
 
     def pack(self) -> np.ndarray:
         p = np.zeros(_NP)
