@@ -193,6 +193,18 @@ def _projector_one(J, w, P):  # pragma: no cover - compiled
     return True
 
 
+@njit(cache=True, inline="always")
+def _project_out(v, N, c):  # pragma: no cover - compiled
+    """Remove from ``v`` its components along the first ``c`` (orthonormal) columns of ``N``."""
+    m = v.shape[0]
+    for q in range(c):
+        d = 0.0
+        for i in range(m):
+            d += N[i, q] * v[i]
+        for i in range(m):
+            v[i] -= d * N[i, q]
+
+
 @njit(cache=True)
 def _null_basis_one(A_T, N):  # pragma: no cover - compiled
     """Orthonormal basis ``N`` (m x (m-k)) of null(A) for ``A_T`` = A^T (m x k) of full rank.
@@ -216,12 +228,7 @@ def _null_basis_one(A_T, N):  # pragma: no cover - compiled
                 continue
             for i in range(m):
                 v[i] = P[i, j]
-            for q in range(c):
-                d = 0.0
-                for i in range(m):
-                    d += N[i, q] * v[i]
-                for i in range(m):
-                    v[i] -= d * N[i, q]
+            _project_out(v, N, c)
             nn = 0.0
             for i in range(m):
                 nn += v[i] * v[i]
@@ -234,12 +241,7 @@ def _null_basis_one(A_T, N):  # pragma: no cover - compiled
         for i in range(m):
             v[i] = P[i, bi]
         for _rep in range(2):  # re-orthogonalise twice for round-off
-            for q in range(c):
-                d = 0.0
-                for i in range(m):
-                    d += N[i, q] * v[i]
-                for i in range(m):
-                    v[i] -= d * N[i, q]
+            _project_out(v, N, c)
         nn = 0.0
         for i in range(m):
             nn += v[i] * v[i]
