@@ -205,20 +205,25 @@ _POLICY_KWARGS: dict[str, Any] = {
 }
 
 
+def _check_table(v: dict, table: dict[str, Any]) -> dict:
+    """Validate each entry of ``v`` with ``table[key]``; an unknown key lists the valid ones."""
+    out = {}
+    for k, x in v.items():
+        if k not in table:
+            raise ValueError(f"unknown key {k!r}; valid keys: {sorted(table)}")
+        try:
+            out[k] = table[k](x)
+        except ValueError as e:
+            raise ValueError(f"{k} {e}") from None
+    return out
+
+
 def _policy_kwargs(v: Any) -> dict:
     if not isinstance(v, dict):
         raise ValueError(
             f"must be a mapping of plain values (e.g. {{net_arch: [64, 64]}}), got {v!r}"
         )
-    out = {}
-    for k, x in v.items():
-        if k not in _POLICY_KWARGS:
-            raise ValueError(f"unknown key {k!r}; valid keys: {sorted(_POLICY_KWARGS)}")
-        try:
-            out[k] = _POLICY_KWARGS[k](x)
-        except ValueError as e:
-            raise ValueError(f"{k} {e}") from None
-    return out
+    return _check_table(v, _POLICY_KWARGS)
 
 
 _NORMALIZE_KWARGS: dict[str, Any] = {
@@ -236,15 +241,7 @@ def _normalize(v: Any) -> bool | dict:
         return v
     if not isinstance(v, dict):
         raise ValueError(f"must be true, false or a mapping of VecNormalize options, got {v!r}")
-    out = {}
-    for k, x in v.items():
-        if k not in _NORMALIZE_KWARGS:
-            raise ValueError(f"unknown key {k!r}; valid keys: {sorted(_NORMALIZE_KWARGS)}")
-        try:
-            out[k] = _NORMALIZE_KWARGS[k](x)
-        except ValueError as e:
-            raise ValueError(f"{k} {e}") from None
-    return out
+    return _check_table(v, _NORMALIZE_KWARGS)
 
 
 # Keys of the RL Zoo block that are not algorithm keyword arguments.
