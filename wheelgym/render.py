@@ -70,6 +70,8 @@ class Renderer:
         self.center = np.zeros(2)
         self.scale = 60.0
         self._view_set = False
+        self._path_key: tuple[int, int] | None = None
+        self._path = np.zeros((0, 2))
 
     def reset(self) -> None:
         self.trail = []
@@ -84,7 +86,7 @@ class Renderer:
         else:
             pts = [c.pose[i, :2]]
             if c.task_name == "track":
-                pts.append(task.ref[i, :, :2])
+                pts.append(self._ref_path(i))
             else:
                 pts.append(task.goal[i, :2])
             pts = np.vstack([np.atleast_2d(p) for p in pts])
@@ -93,6 +95,14 @@ class Renderer:
             half = max(2.0, 0.5 * float(np.max(hi - lo)) + 1.0)
         self.scale = SIZE / (2.0 * half)
         self._view_set = True
+
+    def _ref_path(self, i: int) -> np.ndarray:
+        """Row i's reference path every 4 steps, evaluated once per episode."""
+        obj = self.core.task.objs[i]
+        if self._path_key != (i, id(obj)):
+            self._path = self.core.task.path(i, stride=4)
+            self._path_key = (i, id(obj))
+        return self._path
 
     def _px(self, x: float, y: float) -> tuple[int, int]:
         return (int(round(SIZE / 2 + (x - self.center[0]) * self.scale)),
@@ -128,7 +138,7 @@ class Renderer:
                 pg.draw.line(s, _RAY, self._px(x, y),
                              self._px(x + d * math.cos(ang), y + d * math.sin(ang)), 1)
         if c.task_name == "track":
-            path = [self._px(px, py) for px, py in task.ref[i, :: 4, :2]]
+            path = [self._px(px, py) for px, py in self._ref_path(i)]
             pg.draw.lines(s, _REF, False, path, 2)
             rp = task.reference_at()[0][i]
             self._pose_marker(rp, _REF)

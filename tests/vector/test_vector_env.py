@@ -82,6 +82,29 @@ def test_matches_single_env_pymunk_ranges():
     rollout_equal(vec, ref, 12)
 
 
+@pytest.mark.parametrize("robot,action_mode", [("DiffDrive", None), ("ThreeWheel", "velocity")])
+def test_matches_single_env_long_track_episodes(robot, action_mode):
+    """Track episodes long enough that every sub-env's reference window moves on (every
+    ``window - ahead`` = 33 steps), desynchronised by a partial reset, with time limits."""
+    kw = {"task": "track", "max_episode_steps": 90}
+    if action_mode:
+        kw["action_mode"] = action_mode
+    vec, ref = make_pair(robot, 3, NEXT, **kw)
+    rng = np.random.default_rng(5)
+    assert_same(vec.reset(seed=3), ref.reset(seed=3), "reset")
+    moved = 0
+    for t in range(140):
+        if t == 20:
+            m = np.array([False, True, False])
+            assert_same(vec.reset(options={"reset_mask": m}),
+                        ref.reset(options={"reset_mask": m.copy()}), f"partial reset {t}")
+        a = (0.05 * rng.uniform(-1, 1, vec.action_space.shape)).astype(np.float32)
+        kb = vec.unwrapped.core.task.kbase.copy()
+        assert_same(vec.step(a), ref.step(a), f"step {t}")
+        moved += int(np.sum(vec.unwrapped.core.task.kbase > kb))
+    assert moved >= 6
+
+
 def test_terminations_and_autoreset_covered():
     """A run where sub-envs terminate (overspeed under bang-bang torques) at different steps
     and are truncated, in both autoreset modes, still equal to the single env."""

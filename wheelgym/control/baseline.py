@@ -181,8 +181,7 @@ class BaselinePolicy:
         c = self.core
         pose, tw, _ = c.task.reference_at()
         # aim at the reference one control step ahead (the twist acts over the next step)
-        k = np.minimum(c.task.kstep + 1, c.task.L - 1)
-        ref = c.task.ref[np.arange(c.num), k]
+        ref = c.task.reference_ahead(1)
         pose, tw = ref[:, :3], ref[:, 3:6]
         x_off = 0.0 if self.holonomic else self.x_icr
         if not self.holonomic:

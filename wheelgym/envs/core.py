@@ -14,7 +14,8 @@ Core API::
 
 ``obs`` is the core's float32 buffer ``(N, obs_dim)`` (copy what you keep); ``info`` is a dict
 of per-row arrays (see :meth:`WheelCore.step`). The core never truncates: time limits belong to
-the wrappers (``max_episode_steps``); ``horizon`` only sizes the track task's reference table.
+the wrappers (``max_episode_steps``); ``horizon`` is how far the track task evaluates its
+reference (it holds its last point after).
 """
 
 from __future__ import annotations
@@ -190,6 +191,7 @@ class WheelCore:
         self.coll = self.F[:, F_COLL]
         self.ok[:] = True
         self.steps = np.zeros(N, dtype=np.int64)  # control steps since each row's reset
+        self._all = np.arange(N, dtype=np.int64)
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
@@ -312,7 +314,7 @@ class WheelCore:
         if len(rngs) != N:
             raise ValueError(f"rngs must hold {N} generators, got {len(rngs)}")
         self.rngs = rngs
-        idx = np.arange(N) if rows is None else np.asarray(rows, dtype=np.int64)
+        idx = self._all if rows is None else np.asarray(rows, dtype=np.int64)
         if idx.size == 0:
             return self.obs
         for i in idx:
@@ -322,41 +324,32 @@ class WheelCore:
             self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
         self.energy[idx] = 0.0
         self.steps[idx] = 0
-        # features at the start state: a zero-substep pass of the step kernel on copies
-        Bs = self.B.copy()
-        Fs = self.F.copy()
+        # features at the start state: a zero-substep pass of the step kernel on the reset
+        # rows' copies (a partial reset costs its rows only)
+        Xs = self.X[idx]
+        Bs = self.B[idx]
+        Fs = self.F[idx]
         Bs[:, 2 * self.m] = 0.0  # the pass adds no work; keep the energy column clean
-        A0 = np.zeros((N, self.m))
-        self.spec.k_env_step(self.X, A0, self.LH, self.P, self.h, 0, self.Xo.copy(), Bs, Fs)
+        A0 = np.zeros((idx.size, self.m))
+        self.spec.k_env_step(Xs, A0, self.LH[idx], self.P[idx], self.h, 0, Xs.copy(), Bs, Fs)
         for k in ("pose", "twist", "feat", "jv"):
-            getattr(self, k)[idx] = Bs[idx][:, self._lay[k]]
+            getattr(self, k)[idx] = Bs[:, self._lay[k]]
         self.U[idx] = 0.0
         self.eff[idx] = 0.0
         self.xf[idx] = 0.0
         self.sat[idx] = False
         self.ok[idx] = True
-        keep = (self.obs.copy(), self.terms.copy(), self.B.copy(), self.F.copy())
-        self.task.evaluate()
+        self.task.evaluate(idx)
         self._noise(idx)
-        self.task.commit(idx)
-        mask = np.ones(N, dtype=np.bool_)
-        mask[idx] = False
-        lay = self._lay
-        self.obs[mask] = keep[0][mask]
-        self.terms[mask] = keep[1][mask]
-        for k in ("reward", "err"):
-            getattr(self, k)[mask] = keep[2][mask, lay[k]]
-        self.term[mask] = keep[3][mask, F_TERM]
-        self.succ[mask] = keep[3][mask, F_SUCC]
         return self.obs
 
-    def _noise(self, idx) -> None:
+    def _noise(self, idx: np.ndarray) -> None:
         if self.obs_noise <= 0:
             return
-        noise = np.zeros(self.obs.shape)
-        for i in idx:
-            noise[i] = self.rngs[i].normal(0.0, self.obs_noise, self.obs.shape[1])
-        k_noise(self.obs, noise, self.obs_low, self.obs_high)
+        noise = np.empty((idx.size, self.obs.shape[1]))
+        for n, i in enumerate(idx):
+            noise[n] = self.rngs[i].normal(0.0, self.obs_noise, self.obs.shape[1])
+        k_noise(idx, self.obs, noise, self.obs_low, self.obs_high)
 
     # ------------------------------------------------------------------ step
     def step(self, actions: np.ndarray, active: np.ndarray | None = None
@@ -402,5 +395,5 @@ class WheelCore:
         self.steps += 1
         self.task.evaluate()
         if self.obs_noise > 0:
-            self._noise(range(self.num) if active is None else np.flatnonzero(active))
+            self._noise(self._all if active is None else np.flatnonzero(active))
         return self.obs, self.reward, self.term, self.info_buffers

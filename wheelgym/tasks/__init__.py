@@ -1,4 +1,4 @@
-"""Tasks: reference trajectories (and, later, reward terms and success tests)."""
+"""Tasks: reference trajectories, and the environments' goal, track and navigate tasks."""
 
 from wheelgym.tasks.references import (
     Circle,
@@ -7,6 +7,7 @@ from wheelgym.tasks.references import (
     PointToPoint,
     QuinticCircle,
     Reference,
+    evaluate_batch,
     quintic_scaling,
 )
 
@@ -18,4 +19,5 @@ __all__ = [
     "Line",
     "PointToPoint",
     "quintic_scaling",
+    "evaluate_batch",
 ]

@@ -47,18 +47,19 @@ def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def k_goal(B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+def k_goal(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
            terms):  # pragma: no cover - compiled
-    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist.
+    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist,
+    for the rows listed in ``rows`` (the others are not touched).
 
-    Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose,
-    as in a partial reset of a batch, gets the same bits again)."""
-    N = B.shape[0]
+    Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose
+    gets the same bits again)."""
     o = 2 * m  # energy column; pose at o + 2
     nf = B.shape[1] - (2 * m + 11)
     tol_p, tol_y, vmax, wmax, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
                                                       cfg[5], cfg[6])
-    for i in range(N):
+    for r in range(rows.shape[0]):
+        i = rows[r]
         b = B[i]
         ob = obs[i]
         dx = goal[i, 0] - b[o + 2]
@@ -97,20 +98,21 @@ def k_goal(B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
 
 
 @njit(cache=True)
-def k_track(B, F, m, ref, kstep, preview, cfg, fclip, W, obs,
+def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
             terms):  # pragma: no cover - compiled
-    """Track task. ``ref (N, L, 6)`` holds pose and body twist of the reference per control step;
-    row i compares with ``ref[i, kstep[i]]`` and previews ``ref[i, kstep[i] + preview[q]]``."""
-    N = B.shape[0]
-    L = ref.shape[1]
+    """Track task, for the rows listed in ``rows``. ``ref (N, n_window, 6)`` holds pose and body
+    twist of row i's reference at control steps ``kbase[i] + j``; row i compares with step
+    ``min(kstep[i], L - 1)`` and previews ``min(kstep[i] + preview[q], L - 1)`` (the reference
+    holds its last point from step ``L - 1`` on)."""
     o = 2 * m
     nf = B.shape[1] - (2 * m + 11)
     vmax, wmax, lost, tol_p, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
                                                      cfg[5], cfg[6])
-    for i in range(N):
+    for r in range(rows.shape[0]):
+        i = rows[r]
         b = B[i]
         ob = obs[i]
-        k = min(kstep[i], L - 1)
+        k = min(kstep[i], L - 1) - kbase[i]
         px = b[o + 2]
         py = b[o + 3]
         c = math.cos(b[o + 4])
@@ -128,7 +130,7 @@ def k_track(B, F, m, ref, kstep, preview, cfg, fclip, W, obs,
         ob[6] = _clip(ref[i, k, 5], wclip)
         j = 7
         for q in range(preview.shape[0]):
-            kq = min(k + preview[q], L - 1)
+            kq = min(kstep[i] + preview[q], L - 1) - kbase[i]
             qx = ref[i, kq, 0] - px
             qy = ref[i, kq, 1] - py
             ob[j] = _clip(c * qx + s * qy, pclip)
@@ -155,9 +157,10 @@ def k_track(B, F, m, ref, kstep, preview, cfg, fclip, W, obs,
 
 
 @njit(cache=True)
-def k_noise(obs, noise, low, high):  # pragma: no cover - compiled
-    """``obs += noise`` clipped to the bounds, in place."""
-    for i in range(obs.shape[0]):
+def k_noise(rows, obs, noise, low, high):  # pragma: no cover - compiled
+    """``obs[rows[r]] += noise[r]`` clipped to the bounds, in place."""
+    for r in range(rows.shape[0]):
+        i = rows[r]
         for j in range(obs.shape[1]):
-            v = obs[i, j] + noise[i, j]
+            v = obs[i, j] + noise[r, j]
             obs[i, j] = min(max(v, low[j]), high[j])

@@ -20,6 +20,7 @@ scalar calls.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ __all__ = [
     "Line",
     "PointToPoint",
     "quintic_scaling",
+    "evaluate_batch",
 ]
 
 
@@ -73,7 +75,8 @@ def quintic_scaling(t: np.ndarray, duration: float, total: float = 1.0):
     ``total = 2 pi`` and ``duration = 60`` this is the three-wheel paper's beta(t) of section 5
     (``a3 = 20 pi / 60^3``, ``a4 = -30 pi / 60^4``, ``a5 = 12 pi / 60^5``; physics.md TW-7).
     """
-    T = float(duration)
+    # an array of durations broadcasts against t (evaluate_batch)
+    T = duration if isinstance(duration, np.ndarray) else float(duration)
     tau = np.clip(t / T, 0.0, 1.0)
     inside = (t > 0.0) & (t < T)
     s = total * tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
@@ -96,6 +99,9 @@ class Reference:
 
     duration: float
     _heading: float | None = None
+    #: Whether :func:`evaluate_batch` may turn the parameters into columns (scalars, and
+    #: vectors indexed by their first axis only).
+    _batchable: bool = False
 
     # subclasses --------------------------------------------------------------------
     def _time_law(self, t: np.ndarray):
@@ -172,6 +178,8 @@ class Reference:
 class _CircleCurve(Reference):
     """``p(s) = c + R (sin s, -cos s)`` (counter-clockwise, tangent heading ``s``) or mirrored."""
 
+    _batchable = True
+
     def __init__(self, radius: float, center: Any, clockwise: bool, phase: float) -> None:
         self.radius = _positive("radius", radius)
         self.center = _vec("center", center, 2)
@@ -188,7 +196,7 @@ class _CircleCurve(Reference):
         # p = c + k R (sin a, -cos a): dp/ds = R (cos a, sin a) for both directions
         p = np.stack([self.center[0] + k * R * sa, self.center[1] - k * R * ca], axis=-1)
         ps = np.stack([R * ca, R * sa], axis=-1)
-        pss = k * np.stack([-R * sa, R * ca], axis=-1)
+        pss = np.stack([-k * R * sa, k * R * ca], axis=-1)  # k = +-1: exact
         psss = np.stack([-R * ca, -R * sa], axis=-1)
         return p, ps, pss, psss
 
@@ -278,6 +286,8 @@ class FigureEight(Reference):
         center: (m), default (0, 0) (the crossing point, passed heading along +x +y).
         heading: ``"tangent"`` (default) or a constant yaw (rad) for holonomic robots.
     """
+
+    _batchable = True
 
     def __init__(
         self, size: float = 1.0, period: float = 30.0, center: Any = (0.0, 0.0),
@@ -416,3 +426,44 @@ class PointToPoint(Reference):
     def _yaw_law(self, t, s, sd, sdd):
         dyaw = self.goal[2] - self.start[2]
         return self.start[2] + s * dyaw, sd * dyaw, sdd * dyaw
+
+
+def evaluate_batch(refs: Sequence[Reference], t: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Evaluate ``n`` references of one class in one NumPy pass: row ``r`` of ``t (n, W)`` on
+    ``refs[r]``.
+
+    Returns ``(pose, twist, rate)``, each ``(n, W, 3)``. Every parameter of the references
+    becomes a column ``(n, 1)`` (a vector one ``(k, n, 1)``) that broadcasts against ``t``,
+    so row ``r`` goes through the same element-wise operations as ``refs[r].evaluate(t[r])``;
+    the environments' track task evaluates its reference windows this way (one call per
+    class instead of one per robot). Classes whose vector parameters broadcast on the last
+    axis (``Line``, ``PointToPoint``) are evaluated row by row.
+
+    Raises:
+        ValueError: ``refs`` is empty, mixes classes, or ``t`` is not ``(len(refs), W)``.
+    """
+    if len(refs) == 0:
+        raise ValueError("refs must hold at least one Reference")
+    cls = type(refs[0])
+    if any(type(r) is not cls for r in refs):
+        names = sorted({type(r).__name__ for r in refs})
+        raise ValueError(f"refs must all be of one class, got {names}")
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim != 2 or t.shape[0] != len(refs):
+        raise ValueError(f"t must have shape ({len(refs)}, W), got {t.shape}")
+    if not cls._batchable:  # vector parameters broadcast on the last axis: one row at a time
+        out = [r.evaluate(t[k]) for k, r in enumerate(refs)]
+        return tuple(np.stack([o[j] for o in out]) for j in range(3))  # type: ignore[return-value]
+    batch = object.__new__(cls)
+    for name, v0 in vars(refs[0]).items():
+        vals = [vars(r)[name] for r in refs]
+        if v0 is None or isinstance(v0, str):
+            if any(v != v0 for v in vals):
+                raise ValueError(f"refs differ in {name!r}, which cannot be batched")
+            setattr(batch, name, v0)
+        elif isinstance(v0, np.ndarray):
+            setattr(batch, name, np.stack(vals, axis=-1)[..., None])
+        else:  # numbers and flags: a column
+            setattr(batch, name, np.array(vals)[:, None])
+    return batch.evaluate(t)

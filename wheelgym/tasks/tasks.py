@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from wheelgym.tasks._kernels import k_goal, k_track
-from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle
+from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle, evaluate_batch
 
 if TYPE_CHECKING:  # pragma: no cover
     from wheelgym.envs.core import WheelCore
@@ -68,11 +68,10 @@ class Task:
     def reset_rows(self, idx: Sequence[int], rngs, options: dict | None) -> np.ndarray:
         raise NotImplementedError
 
-    def evaluate(self) -> None:
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
+        """Observation, reward terms, end and success of ``rows`` (all when None) from the
+        core's blocks; other rows are not touched."""
         raise NotImplementedError
-
-    def commit(self, rows: np.ndarray | None = None) -> None:
-        """Advance the task's own state after a step (``rows``: those that were reset)."""
 
 
 class GoalTask(Task):
@@ -98,6 +97,7 @@ class GoalTask(Task):
         self.ranges = np.zeros((N, self.n_rays))
         self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
                              POS_CLIP, core.vclip, core.wclip])
+        self._all = np.arange(N, dtype=np.int64)
 
     def term_names(self, spec) -> tuple[str, ...]:
         return tuple(n for n in super().term_names(spec) if n != "collision")
@@ -121,10 +121,10 @@ class GoalTask(Task):
             self.prev[i] = d
         return poses
 
-    def evaluate(self) -> None:
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
         c = self.core
-        k_goal(c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.cfg, c.fclip, self.W,
-               c.obs, c.terms)
+        k_goal(self._all if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
+               self.ranges, self.cfg, c.fclip, self.W, c.obs, c.terms)
 
     def target_pose(self) -> np.ndarray:
         return self.goal
@@ -192,28 +192,53 @@ class NavigateTask(GoalTask):
             poses[n] = w.start
         return poses
 
-    def sense(self) -> None:
-        """Range readings and collision flags at the current poses."""
+    def sense(self, rows: np.ndarray | None = None) -> None:
+        """Range readings and collision flags at the current poses of ``rows`` (all: None)."""
         from wheelgym.world import k_clearance, k_ranges, pymunk_ranges
 
         c = self.core
+        if rows is None:
+            if self.backend == "analytic":
+                k_ranges(c.pose, self.circles, self.nc, self.segs, self.ns, self.max_range,
+                         self.ranges)
+            else:
+                for i in range(c.num):
+                    pymunk_ranges(self.spaces[i], c.pose[i], self.n_rays, self.max_range,
+                                  self.ranges[i])
+            k_clearance(c.pose, self.circles, self.nc, self.segs, self.ns, self.clear)
+            np.less(self.clear, c.spec.radius, out=c.coll)
+            return
+        # a few rows (a partial reset): the same kernels on those rows' copies
+        pose, circles, nc, segs, ns = (c.pose[rows], self.circles[rows], self.nc[rows],
+                                       self.segs[rows], self.ns[rows])
         if self.backend == "analytic":
-            k_ranges(c.pose, self.circles, self.nc, self.segs, self.ns, self.max_range,
-                     self.ranges)
+            ranges = np.empty((len(rows), self.n_rays))
+            k_ranges(pose, circles, nc, segs, ns, self.max_range, ranges)
+            self.ranges[rows] = ranges
         else:
-            for i in range(c.num):
+            for i in rows:
                 pymunk_ranges(self.spaces[i], c.pose[i], self.n_rays, self.max_range,
                               self.ranges[i])
-        k_clearance(c.pose, self.circles, self.nc, self.segs, self.ns, self.clear)
-        np.less(self.clear, c.spec.radius, out=c.coll)
+        clear = np.empty(len(rows))
+        k_clearance(pose, circles, nc, segs, ns, clear)
+        self.clear[rows] = clear
+        c.coll[rows] = clear < c.spec.radius
 
-    def evaluate(self) -> None:
-        self.sense()
-        super().evaluate()
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
+        self.sense(rows)
+        super().evaluate(rows)
 
 
 class TrackTask(Task):
-    """Follow a reference trajectory (circle, figure-eight or the paper's quintic circle)."""
+    """Follow a reference trajectory (circle, figure-eight or the paper's quintic circle).
+
+    Each row holds its reference object and a window of ``window`` control steps of it (pose,
+    body twist, twist rate); the window moves on when a preview would leave it, and all due
+    rows of one reference class are evaluated in one NumPy pass
+    (:func:`~wheelgym.tasks.references.evaluate_batch`). Memory per row is therefore fixed
+    (about 4.6 KB at ``window = 64``) whatever the episode length. The reference is evaluated
+    up to step ``L - 1 = horizon + preview_steps[-1] + 1`` and holds its last point after.
+    """
 
     name = "track"
     columns = ("position", "heading", "effort", "internal_force", "overspeed", "lost")
@@ -226,15 +251,26 @@ class TrackTask(Task):
     #: A step counts as success (``is_success``) within this distance (m).
     tol_pos = 0.05
     references = ("circle", "figure_eight", "quintic_circle")
+    #: Control steps of the reference held per row.
+    window = 64
 
     def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
         N = core.num
-        self.L = core.horizon + int(self.preview_steps[-1]) + 2
-        self.ref = np.zeros((N, self.L, 6))
-        self.ref_rate = np.zeros((N, self.L, 3))
+        # steps ahead of the current one that are read: the previews and the baseline's k + 1
+        self.ahead = int(self.preview_steps[-1]) + 1
+        self.L = core.horizon + self.ahead + 1
+        self.nw = min(self.window, self.L)  # window length (steps)
+        self.ref = np.zeros((N, self.nw, 6))
+        self.ref_rate = np.zeros((N, self.nw, 3))
         self.kstep = np.zeros(N, dtype=np.int64)
+        self.kbase = np.zeros(N, dtype=np.int64)  # step of window column 0, per row
         self.kind = [""] * N
+        self.objs: list[Any] = [None] * N
+        self.t0 = np.zeros(N)  # reference time at step 0 (s)
+        self.place = np.zeros((N, 5))  # rigid placement: cos th, sin th, ox, oy, th
+        self._slack = 0  # steps before any row's window must move on
+        self._all = np.arange(N, dtype=np.int64)
         self.cfg = np.array([core.spec.v_max, core.spec.w_max, self.lost_dist, self.tol_pos,
                              POS_CLIP, core.vclip, core.wclip])
 
@@ -268,42 +304,93 @@ class TrackTask(Task):
         return kind, ref, t0
 
     def reset_rows(self, idx, rngs, options):
-        dt = self.core.dt
-        t = np.arange(self.L) * dt
-        poses = np.zeros((len(idx), 3))
-        for n, i in enumerate(idx):
+        for i in idx:
             rng = rngs[i]
             kind, ref, t0 = self._draw_reference(rng)
-            pose, twist, rate = ref.evaluate(t + t0)
             # random rigid placement: rotate by th about the origin, then shift by (ox, oy)
             th = rng.uniform(-math.pi, math.pi)
             ox, oy = rng.uniform(-1.0, 1.0, 2)
-            c, s = math.cos(th), math.sin(th)
-            out = self.ref[i]
-            out[:, 0] = c * pose[:, 0] - s * pose[:, 1] + ox
-            out[:, 1] = s * pose[:, 0] + c * pose[:, 1] + oy
-            out[:, 2] = pose[:, 2] + th
-            out[:, 3:6] = twist
-            self.ref_rate[i] = rate
+            self.place[i] = (math.cos(th), math.sin(th), ox, oy, th)
+            self.objs[i] = ref
             self.kind[i] = kind
-            self.kstep[i] = 0
-            poses[n] = out[0, :3]
-        return poses
+            self.t0[i] = t0
+        idx = np.asarray(idx, dtype=np.int64)
+        self.kstep[idx] = 0
+        self.kbase[idx] = 0
+        self._fill(idx)
+        self._update_slack()
+        return self.ref[idx, 0, :3].copy()
 
-    def evaluate(self) -> None:
+    def _fill(self, rows: np.ndarray) -> None:
+        """Evaluate the windows of ``rows`` from their ``kbase`` on (one pass per class)."""
+        j = np.arange(self.nw)
+        groups: dict[type, list[int]] = {}
+        for i in rows:
+            groups.setdefault(type(self.objs[i]), []).append(int(i))
+        for members in groups.values():
+            r = np.array(members, dtype=np.int64)
+            k = np.minimum(self.kbase[r, None] + j, self.L - 1)
+            pose, twist, rate = evaluate_batch([self.objs[i] for i in members],
+                                               k * self.core.dt + self.t0[r, None])
+            c, s, ox, oy, th = (self.place[r, q, None] for q in range(5))
+            out = self.ref[r]
+            out[..., 0] = c * pose[..., 0] - s * pose[..., 1] + ox
+            out[..., 1] = s * pose[..., 0] + c * pose[..., 1] + oy
+            out[..., 2] = pose[..., 2] + th
+            out[..., 3:6] = twist
+            self.ref[r] = out
+            self.ref_rate[r] = rate
+
+    def _update_slack(self) -> None:
+        # a row needs a new window once min(kstep + ahead, L - 1) passes its last column
+        last = self.kbase + self.nw - 1
+        slack = np.where(last >= self.L - 1, np.iinfo(np.int64).max,
+                         last - (self.kstep + self.ahead))
+        self._slack = int(slack.min())
+
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
         c = self.core
-        k_track(c.B, c.F, c.m, self.ref, self.kstep, self.preview_steps, self.cfg, c.fclip,
-                self.W, c.obs, c.terms)
+        k_track(self._all if rows is None else rows, c.B, c.F, c.m, self.ref, self.kstep,
+                self.kbase, self.L, self.preview_steps, self.cfg, c.fclip, self.W, c.obs,
+                c.terms)
 
     def advance(self) -> None:
-        """Move every row's reference index one control step on (before integrating)."""
+        """Move every row's reference index one control step on (before integrating), and the
+        windows of the rows whose previews would leave theirs."""
         self.kstep += 1
+        self._slack -= 1
+        if self._slack < 0:
+            due = np.flatnonzero(np.minimum(self.kstep + self.ahead, self.L - 1)
+                                 > self.kbase + self.nw - 1)
+            self.kbase[due] = np.minimum(self.kstep[due], self.L - 1)
+            self._fill(due)
+            self._update_slack()
+
+    def _column(self, ahead: int = 0) -> np.ndarray:
+        """Window column of step ``min(kstep + ahead, L - 1)`` per row."""
+        return np.minimum(self.kstep + ahead, self.L - 1) - self.kbase
 
     def reference_at(self, rows=slice(None)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Reference pose, twist and twist rate at each row's current index."""
-        k = np.minimum(self.kstep[rows], self.L - 1)
-        r = np.arange(self.core.num)[rows]
+        """Reference pose, twist and twist rate at each row's current step."""
+        r = self._all[rows]
+        k = self._column()[rows]
         return self.ref[r, k, :3], self.ref[r, k, 3:6], self.ref_rate[r, k]
+
+    def reference_ahead(self, ahead: int) -> np.ndarray:
+        """Reference pose and twist ``(N, 6)`` ``ahead`` steps on (at most ``ahead`` =
+        ``preview_steps[-1] + 1``, the span every window covers)."""
+        if not 0 <= ahead <= self.ahead:
+            raise ValueError(f"ahead must be in [0, {self.ahead}], got {ahead!r}")
+        return self.ref[self._all, self._column(ahead)]
+
+    def path(self, i: int, stride: int = 1) -> np.ndarray:
+        """Row ``i``'s whole reference path ``(n, 2)`` (m) from step 0 to ``L - 1``, every
+        ``stride`` steps (for drawing; evaluated on demand)."""
+        k = np.arange(0, self.L, stride)
+        pose = evaluate_batch([self.objs[i]], k[None] * self.core.dt + self.t0[i])[0][0]
+        c, s, ox, oy, _ = self.place[i]
+        return np.stack([c * pose[:, 0] - s * pose[:, 1] + ox,
+                         s * pose[:, 0] + c * pose[:, 1] + oy], axis=-1)
 
     def target_pose(self) -> np.ndarray:
         return self.reference_at()[0]

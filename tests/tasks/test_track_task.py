@@ -1,0 +1,87 @@
+"""The track task's moving reference windows against the references evaluated directly."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from wheelgym.envs.core import WheelCore
+from wheelgym.tasks.tasks import TrackTask
+
+
+def _direct(task: TrackTask, i: int, step: int) -> np.ndarray:
+    """Row i's placed reference pose and twist at ``step``, from its object alone."""
+    k = min(step, task.L - 1)
+    pose, twist, _ = task.objs[i].evaluate(np.array([task.t0[i] + k * task.core.dt]))
+    c, s, ox, oy, th = task.place[i]
+    x = c * pose[0, 0] - s * pose[0, 1] + ox
+    y = s * pose[0, 0] + c * pose[0, 1] + oy
+    return np.array([x, y, pose[0, 2] + th, *twist[0]])
+
+
+@pytest.mark.parametrize("horizon", [500, 40])
+def test_windows_follow_the_reference_and_hold_its_end(horizon):
+    N = 5
+    core = WheelCore("DiffDrive", N, task="track", horizon=horizon)
+    rngs = [np.random.default_rng(100 + i) for i in range(N)]
+    core.reset(None, rngs)
+    task = core.task
+    assert isinstance(task, TrackTask)
+    assert task.ref.shape == (N, min(TrackTask.window, task.L), 6)
+    moved = 0
+    a = np.zeros((N, core.action_dim))
+    for t in range(130):
+        if t == 17:  # desynchronise: rows 1 and 3 start again
+            core.reset(np.array([1, 3]), rngs)
+        kb = task.kbase.copy()
+        core.step(a)
+        moved += int(np.sum(task.kbase != kb))
+        for i in range(N):
+            k = int(task.kstep[i])
+            pose, twist, _ = (v[i] for v in task.reference_at())
+            np.testing.assert_allclose(np.r_[pose, twist], _direct(task, i, k), rtol=0,
+                                       atol=1e-12)
+            for q in (1, task.ahead):
+                np.testing.assert_allclose(task.reference_ahead(q)[i], _direct(task, i, k + q),
+                                           rtol=0, atol=1e-12)
+            # the observation's preview points (float32) are the reference's, in the body frame
+            px, py, yaw = core.pose[i]
+            cy, sy = math.cos(yaw), math.sin(yaw)
+            for n, q in enumerate(task.preview_steps):
+                r = _direct(task, i, k + int(q))
+                bx = cy * (r[0] - px) + sy * (r[1] - py)
+                by = -sy * (r[0] - px) + cy * (r[1] - py)
+                np.testing.assert_allclose(core.obs[i, 7 + 2 * n: 9 + 2 * n], [bx, by],
+                                           rtol=0, atol=1e-5)
+    # each window moves on every window - ahead steps until it reaches step L - 1
+    assert moved >= (2 * N if horizon == 500 else N)
+    if horizon == 40:  # past L - 1 the reference holds its last point
+        assert np.all(task.kstep > task.L)
+        np.testing.assert_array_equal(task.reference_ahead(task.ahead), task.reference_ahead(0))
+
+
+def test_memory_per_row_is_fixed():
+    short = WheelCore("DiffDrive", 2, task="track", horizon=100).task
+    long = WheelCore("DiffDrive", 2, task="track", horizon=100_000).task
+    assert short.ref.nbytes == long.ref.nbytes == 2 * TrackTask.window * 6 * 8
+
+
+def test_reference_ahead_rejects_offsets_outside_the_window():
+    task = WheelCore("DiffDrive", 1, task="track").task
+    task.core.reset(None, [np.random.default_rng(0)])
+    with pytest.raises(ValueError, match="ahead"):
+        task.reference_ahead(task.ahead + 1)
+    with pytest.raises(ValueError, match="ahead"):
+        task.reference_ahead(-1)
+
+
+def test_path_is_the_reference_from_step_zero():
+    core = WheelCore("ThreeWheel", 2, task="track")
+    core.reset(None, [np.random.default_rng(3), np.random.default_rng(4)])
+    task = core.task
+    path = task.path(1, stride=7)
+    assert path.shape == (len(range(0, task.L, 7)), 2)
+    for n, k in enumerate(range(0, task.L, 7)):
+        np.testing.assert_allclose(path[n], _direct(task, 1, k)[:2], rtol=0, atol=1e-12)
