@@ -1,7 +1,7 @@
 """The one compiled body of an environment's physics step, shared by every robot.
 
-Each robot module binds its model's per-state derivative ``_deriv_one`` and two small per-state
-helpers (joint rates, features) into a cached kernel ``k_env_step`` that inlines
+Each robot module binds its model's per-state derivative ``_deriv_one`` and three small per-state
+helpers (stage motor power, joint rates, features) into a cached kernel ``k_env_step`` that inlines
 :func:`env_step_body`, the same way the models bind ``rk4_inplace`` (a derivative passed at run
 time cannot be cached and costs a call per stage). Every row of the batch is independent and
 uses its own parameter row ``P[i]``, so a batch of N robots gives each robot the bits of N = 1.
@@ -22,19 +22,14 @@ PAR_MIN_ROWS = 256
 
 
 @njit(cache=True, inline="always")
-def _power(jrate, x, u, p, jr):  # pragma: no cover - compiled
-    jrate(x, p, jr)
-    s = 0.0
-    for j in range(u.shape[0]):
-        s += u[j] * jr[j]
-    return s
-
-
-@njit(cache=True, inline="always")
-def rk4_work(f, jrate, x, u, p, h, work, jr):  # pragma: no cover - compiled
+def rk4_work(f, kpower, x, u, p, h, work):  # pragma: no cover - compiled
     """One RK4 step of ``x`` (the arithmetic of ``integrators.rk4_inplace``, so the same bits)
-    that also integrates the motor power ``u . jrate`` with the same stages: the work is RK4 of
-    the state augmented with ``E' = u . qdot`` (exact to the integrator's order)."""
+    that also integrates the motor power with the same stages: the work is RK4 of the state
+    augmented with ``E' = u . qdot`` (exact to the integrator's order).
+
+    ``kpower(x, k, u, p)`` is the power ``u . qdot`` at the stage state ``x`` whose derivative
+    ``f(x, u, p)`` is ``k``: robots whose state holds the joint angles read ``qdot`` from ``k``
+    instead of recomputing it (ThreeWheel's TW-1 rates would cost three more sin/cos a stage)."""
     m = x.shape[0]
     k1 = work[0]
     k2 = work[1]
@@ -44,19 +39,19 @@ def rk4_work(f, jrate, x, u, p, h, work, jr):  # pragma: no cover - compiled
     half = 0.5 * h
     sixth = h / 6.0
     f(x, u, p, k1)
-    e1 = _power(jrate, x, u, p, jr)
+    e1 = kpower(x, k1, u, p)
     for j in range(m):
         tmp[j] = x[j] + half * k1[j]
     f(tmp, u, p, k2)
-    e2 = _power(jrate, tmp, u, p, jr)
+    e2 = kpower(tmp, k2, u, p)
     for j in range(m):
         tmp[j] = x[j] + half * k2[j]
     f(tmp, u, p, k3)
-    e3 = _power(jrate, tmp, u, p, jr)
+    e3 = kpower(tmp, k3, u, p)
     for j in range(m):
         tmp[j] = x[j] + h * k3[j]
     f(tmp, u, p, k4)
-    e4 = _power(jrate, tmp, u, p, jr)
+    e4 = kpower(tmp, k4, u, p)
     for j in range(m):
         x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
     return sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
@@ -86,7 +81,8 @@ def _actions_finite(A):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover
+def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
+                 work):  # pragma: no cover - compiled
     """Row ``i`` of :func:`env_step_body` (``work``: ``(5, n_x)`` scratch of this row)."""
     m = A.shape[1]
     nx = X.shape[1]
@@ -114,11 +110,9 @@ def env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work):  # prag
         x[k] = X[i, k]
     u = b[0:m]
     p = P[i]
-    jr = b[m:2 * m]
     acc = 0.0
     for _ in range(n):
-        acc += rk4_work(f, jrate, x, u, p, h, work, jr)
-    jrate(x, p, jr)
+        acc += rk4_work(f, kpower, x, u, p, h, work)
     good = np.isfinite(acc)
     for k in range(nx):
         if not np.isfinite(x[k]):
@@ -126,23 +120,26 @@ def env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work):  # prag
     if not good:
         for k in range(nx):
             x[k] = X[i, k]
-        jrate(x, p, jr)
     else:
         b[o_e] += acc
+    jrate(x, p, b[m:2 * m])
     F[i, 1] = good
     b[o_p + 6] = feats(x, u, p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
 
 
 @njit(cache=True, inline="always")
-def env_step_body(f, jrate, feats, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+def env_step_body(f, kpower, jrate, feats, X, A, LH, P, h, n, Xo, B,
+                  F):  # pragma: no cover - compiled
     """Scale actions, integrate one control period, accumulate motor work, extract features.
 
     Arrays are few and packed because each array argument of a compiled call costs ~0.25 us.
 
     Args:
         f: per-state derivative ``f(x, u, p, out)`` of the model.
-        jrate: ``jrate(x, p, out)`` joint (motor) rates in input order (rad/s); power is
-            ``u . jrate`` (W). Robots without motors write zeros.
+        kpower: ``kpower(x, k, u, p) -> float`` motor power ``u . qdot`` (W) at a stage state
+            ``x`` with derivative ``k = f(x, u, p)`` (see :func:`rk4_work`); 0 without motors.
+        jrate: ``jrate(x, p, out)`` joint (motor) rates in input order (rad/s), evaluated once
+            at the end of the step for ``jv``. Robots without motors write zeros.
         feats: ``feats(x, u, p, pose, twist, feat) -> float`` writes the pose (x, y, yaw), the
             body twist (vx, vy, wz), the robot's extra observation features, and returns the
             internal-force measure (0 where it does not apply).
@@ -164,7 +161,7 @@ def env_step_body(f, jrate, feats, X, A, LH, P, h, n, Xo, B, F):  # pragma: no c
         return False
     work = np.empty((5, X.shape[1]))
     for i in range(X.shape[0]):
-        env_step_row(f, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+        env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F, work)
     return True
 
 

@@ -19,6 +19,13 @@ __all__ = ["SPEC"]
 
 
 @njit(cache=True, inline="always")
+def _kpower(x, k, u, p):  # pragma: no cover - compiled
+    # tau_L thetadot_L + tau_R thetadot_R at a stage: the derivative k = f(x) holds the drive
+    # rates (state order of models/caster_agv.py: k[6] = thetadot_L, k[7] = thetadot_R)
+    return u[0] * k[6] + u[1] * k[7]
+
+
+@njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # module docstring of caster_agv: thetadot_L,R = (v -+ c w) / r
     out[0] = (x[3] - p[_C] * x[4]) / p[_R]
@@ -40,12 +47,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)

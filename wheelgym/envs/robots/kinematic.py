@@ -30,6 +30,11 @@ __all__ = ["UNICYCLE", "BICYCLE", "DIFFDRIVE", "ACKERMANN"]
 
 
 @njit(cache=True, inline="always")
+def _kpower(x, k, u, p):  # pragma: no cover - compiled
+    return 0.0  # no motors
+
+
+@njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     for j in range(out.shape[0]):
         out[j] = 0.0
@@ -52,12 +57,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)

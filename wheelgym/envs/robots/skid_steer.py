@@ -18,6 +18,14 @@ __all__ = ["SPEC"]
 
 
 @njit(cache=True, inline="always")
+def _kpower(x, k, u, p):  # pragma: no cover - compiled
+    # tau . omega at a stage (SS-1 wheel rates; the state holds no wheel angles, so not in k)
+    wl = (x[3] - p[_C] * x[4]) / p[_R]
+    wr = (x[3] + p[_C] * x[4]) / p[_R]
+    return (u[0] + u[1]) * wl + (u[2] + u[3]) * wr
+
+
+@njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # SS-1: omega_L = (vx - c wz)/r, omega_R = (vx + c wz)/r, motors [1, 2, 3, 4] = [L, L, R, R]
     wl = (x[3] - p[_C] * x[4]) / p[_R]
@@ -41,12 +49,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)

@@ -13,6 +13,8 @@ from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_ste
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.models.three_wheel import (
     _D,
+    _INVD,
+    _INVR,
     _R,
     ThreeWheel,
     ThreeWheelParams,
@@ -28,16 +30,26 @@ __all__ = ["SPEC"]
 
 
 @njit(cache=True, inline="always")
+def _kpower(x, k, u, p):  # pragma: no cover - compiled
+    # tau . qdot at a stage: the derivative k = f(x) holds the TW-1 joint rates (TW-5 state
+    # order), k[9 + i] = thetadot_i (drive) and k[6 + i] = psidot_i (steer); motor order
+    # [drive_1..3, steer_1..3]. No trig: _deriv_one has just evaluated them.
+    return (u[0] * k[9] + u[1] * k[10] + u[2] * k[11]
+            + u[3] * k[6] + u[4] * k[7] + u[5] * k[8])
+
+
+@njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # TW-1: thetadot_i = g_i.u / r, psidot_i = h_i.u / d - wz; motor order [drive, steer]
+    # (the products with 1/r, 1/d that _deriv_one's rates use)
     cs = _trig(x[6], x[7], x[8])
     vx = x[3]
     vy = x[4]
     wz = x[5]
     for i in range(3):
         g, h = _gh(cs, i, p)
-        out[i] = (g[0] * vx + g[1] * vy + g[2] * wz) / p[_R]
-        out[3 + i] = (h[0] * vx + h[1] * vy + h[2] * wz) / p[_D] - wz
+        out[i] = (g[0] * vx + g[1] * vy + g[2] * wz) * p[_INVR]
+        out[3 + i] = (h[0] * vx + h[1] * vy + h[2] * wz) * p[_INVD] - wz
 
 
 @njit(cache=True, inline="always")
@@ -78,12 +90,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)
