@@ -22,14 +22,15 @@ PAR_MIN_ROWS = 256
 
 
 @njit(cache=True, inline="always")
-def rk4_work(f, kpower, x, u, p, h, work):  # pragma: no cover - compiled
-    """One RK4 step of ``x`` (the arithmetic of ``integrators.rk4_inplace``, so the same bits)
-    that also integrates the motor power with the same stages: the work is RK4 of the state
-    augmented with ``E' = u . qdot`` (exact to the integrator's order).
+def rk4_work(f, kpower, x, u, p, h, n, work):  # pragma: no cover - compiled
+    """``n`` RK4 steps of ``x`` (the arithmetic of ``integrators.rk4_inplace``, so the same
+    bits) that also integrate the motor power with the same stages; returns the work. The work
+    is RK4 of the state augmented with ``E' = u . qdot`` (exact to the integrator's order).
 
     ``kpower(x, k, u, p)`` is the power ``u . qdot`` at the stage state ``x`` whose derivative
     ``f(x, u, p)`` is ``k``: robots whose state holds the joint angles read ``qdot`` from ``k``
-    instead of recomputing it (ThreeWheel's TW-1 rates would cost three more sin/cos a stage)."""
+    instead of recomputing it (ThreeWheel's TW-1 rates would cost three more sin/cos a stage).
+    The substep loop is inside, as in ``rk4_inplace``: the views of ``work`` are taken once."""
     m = x.shape[0]
     k1 = work[0]
     k2 = work[1]
@@ -38,23 +39,26 @@ def rk4_work(f, kpower, x, u, p, h, work):  # pragma: no cover - compiled
     tmp = work[4]
     half = 0.5 * h
     sixth = h / 6.0
-    f(x, u, p, k1)
-    e1 = kpower(x, k1, u, p)
-    for j in range(m):
-        tmp[j] = x[j] + half * k1[j]
-    f(tmp, u, p, k2)
-    e2 = kpower(tmp, k2, u, p)
-    for j in range(m):
-        tmp[j] = x[j] + half * k2[j]
-    f(tmp, u, p, k3)
-    e3 = kpower(tmp, k3, u, p)
-    for j in range(m):
-        tmp[j] = x[j] + h * k3[j]
-    f(tmp, u, p, k4)
-    e4 = kpower(tmp, k4, u, p)
-    for j in range(m):
-        x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-    return sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
+    acc = 0.0
+    for _ in range(n):
+        f(x, u, p, k1)
+        e1 = kpower(x, k1, u, p)
+        for j in range(m):
+            tmp[j] = x[j] + half * k1[j]
+        f(tmp, u, p, k2)
+        e2 = kpower(tmp, k2, u, p)
+        for j in range(m):
+            tmp[j] = x[j] + half * k2[j]
+        f(tmp, u, p, k3)
+        e3 = kpower(tmp, k3, u, p)
+        for j in range(m):
+            tmp[j] = x[j] + h * k3[j]
+        f(tmp, u, p, k4)
+        e4 = kpower(tmp, k4, u, p)
+        for j in range(m):
+            x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        acc += sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
+    return acc
 
 
 #: Column layout of the per-row float block ``B`` for ``m`` inputs (see :func:`layout`).
@@ -110,9 +114,7 @@ def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
         x[k] = X[i, k]
     u = b[0:m]
     p = P[i]
-    acc = 0.0
-    for _ in range(n):
-        acc += rk4_work(f, kpower, x, u, p, h, work)
+    acc = rk4_work(f, kpower, x, u, p, h, n, work)
     good = np.isfinite(acc)
     for k in range(nx):
         if not np.isfinite(x[k]):

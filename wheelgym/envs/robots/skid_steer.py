@@ -19,10 +19,12 @@ __all__ = ["SPEC"]
 
 @njit(cache=True, inline="always")
 def _kpower(x, k, u, p):  # pragma: no cover - compiled
-    # tau . omega at a stage (SS-1 wheel rates; the state holds no wheel angles, so not in k)
-    wl = (x[3] - p[_C] * x[4]) / p[_R]
-    wr = (x[3] + p[_C] * x[4]) / p[_R]
-    return (u[0] + u[1]) * wl + (u[2] + u[3]) * wr
+    # tau . omega at a stage; the state holds no wheel angles, so the SS-1 rates are not in k:
+    # tau_L omega_L + tau_R omega_R = ((tau_L + tau_R) vx + c (tau_R - tau_L) wz) / r
+    # (= Bbar (tau_L, tau_R) . eta of SS-3), one division a stage
+    tl = u[0] + u[1]
+    tr = u[2] + u[3]
+    return ((tl + tr) * x[3] + p[_C] * (tr - tl) * x[4]) / p[_R]
 
 
 @njit(cache=True, inline="always")
