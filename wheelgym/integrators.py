@@ -6,6 +6,11 @@ Two entry points share one algorithm, the classic four-stage Runge-Kutta method
 * :func:`rk4_inplace` is the compiled body that every model's kernels inline: it advances one
   state ``n`` substeps of length ``h`` with the input held constant, calling the model's
   per-state derivative ``f(x, u, p, out)``.
+* :func:`rk4_block` is the same arithmetic for a block of up to :data:`LANES` robots held in
+  a local array with the robots on the last axis, for a derivative written as a tuple
+  function ``ft(x, u, p) -> xdot`` without branches (ThreeWheel): the compiler then evaluates
+  four robots per instruction (AVX2), 3.3x faster per robot than a row at a time, and each
+  robot still gets the bits of the one-state arithmetic (lanes never mix).
 * :func:`rk4` is the same scheme for any Python callable ``f(x, u) -> xdot`` on arrays; the
   tests and validation use it for augmented systems (energy integrals, reference formulations).
 
@@ -20,11 +25,15 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 __all__ = [
     "rk4",
     "rk4_inplace",
+    "rk4_block",
+    "block_rows",
+    "LANES",
     "all_finite",
     "check_one",
     "finite_status",
@@ -77,6 +86,164 @@ def rk4_inplace(f, x, u, p, h, n, work):  # pragma: no cover - compiled
         f(tmp, u, p, k4)
         for j in range(m):
             x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+
+
+# ---------------------------------------------------------------------------- blocks of robots
+#: Robots per block of :func:`rk4_block` (two AVX2 vectors of doubles).
+LANES = 8
+
+
+def _generated(args: str, lines: list[str]):
+    """Compile the source of a small generated implementation: loops over a tuple unrolled,
+    so that the compiled code indexes it by constants (a tuple indexed by a loop variable
+    becomes a switch, which stops vectorisation)."""
+    scope: dict = {}
+    body = "\n".join(f"    {ln}" for ln in lines) or "    pass"
+    exec(f"def impl({args}):\n{body}\n", scope)
+    return scope["impl"]
+
+
+def _n(t) -> int:
+    return len(t.types) if isinstance(t, types.BaseTuple) else 0
+
+
+def col(S, o, l, n):  # noqa: E741 - l is the lane
+    """``(S[o, l], ..., S[o + n - 1, l])`` as a tuple; ``n`` a literal int."""
+    return tuple(S[o + j, l] for j in range(n))
+
+
+@overload(col, inline="always", prefer_literal=True)
+def _col(S, o, l, n):  # noqa: E741
+    k = n.literal_value if isinstance(n, types.IntegerLiteral) else 0
+    return _generated("S, o, l, n", ["return (" + "".join(f"S[o + {j}, l], " for j in range(k))
+                                     + ")"])
+
+
+def put(S, o, l, t):  # noqa: E741
+    """``S[o + j, l] = t[j]`` for each entry of the tuple ``t``."""
+    for j, v in enumerate(t):
+        S[o + j, l] = v
+
+
+@overload(put, inline="always")
+def _put(S, o, l, t):  # noqa: E741
+    return _generated("S, o, l, t", [f"S[o + {j}, l] = t[{j}]" for j in range(_n(t))])
+
+
+def put_axpy(S, o, xo, l, c, t):  # noqa: E741
+    """``S[o + j, l] = S[xo + j, l] + c * t[j]`` for each entry of the tuple ``t``."""
+    for j, v in enumerate(t):
+        S[o + j, l] = S[xo + j, l] + c * v
+
+
+@overload(put_axpy, inline="always")
+def _put_axpy(S, o, xo, l, c, t):  # noqa: E741
+    return _generated("S, o, xo, l, c, t",
+                      [f"S[o + {j}, l] = S[xo + {j}, l] + c * t[{j}]" for j in range(_n(t))])
+
+
+def put_rk4(S, xo, k1, k2, k3, l, c, t):  # noqa: E741
+    """``S[xo + j, l] += c * (k1_j + 2 k2_j + 2 k3_j + t[j])``, rk4_inplace's update."""
+    for j, v in enumerate(t):
+        S[xo + j, l] += c * (S[k1 + j, l] + 2.0 * S[k2 + j, l] + 2.0 * S[k3 + j, l] + v)
+
+
+@overload(put_rk4, inline="always")
+def _put_rk4(S, xo, k1, k2, k3, l, c, t):  # noqa: E741
+    return _generated("S, xo, k1, k2, k3, l, c, t", [
+        f"S[xo + {j}, l] += c * (S[k1 + {j}, l] + 2.0 * S[k2 + {j}, l] + 2.0 * S[k3 + {j}, l] "
+        f"+ t[{j}])" for j in range(_n(t))])
+
+
+@njit(cache=True, inline="always")
+def block_rows(nx, m, npar):  # pragma: no cover - compiled
+    """Rows of the block array of :func:`rk4_block`: state, input, parameters, stage state,
+    three stage derivatives, and four power slots (the work integral and e1..e3)."""
+    return 5 * nx + m + npar + 4
+
+
+@njit(cache=True, inline="always")
+def rk4_block(ft, pw, S, nl, nx, m, npar, h, n):  # pragma: no cover - compiled
+    """Advance the ``nl <= LANES`` robots of block ``S`` by ``n`` RK4 steps of length ``h``.
+
+    ``S`` is ``(block_rows(nx, m, npar), LANES)`` with robot ``l`` in column ``l``: rows
+    ``[0, nx)`` the state (advanced in place), ``[nx, nx + m)`` the input (held), the next
+    ``npar`` the parameters, then scratch; row ``5 nx + m + npar`` accumulates the RK4 integral
+    of ``pw(x, xdot, u, p)`` on the same stages (the motor work). ``ft(x, u, p)`` returns the
+    derivative as a tuple; ``nx``, ``m``, ``npar`` must be literal ints.
+
+    One loop over the robots per stage, every row offset a constant: the compiler sees that
+    the robots never overlap and vectorises each loop (with a branch-free ``ft``). The
+    arithmetic is :func:`rk4_inplace`'s, so each robot gets the one-state bits.
+    """
+    u0 = nx
+    p0 = nx + m
+    t0 = p0 + npar
+    k1 = t0 + nx
+    k2 = k1 + nx
+    k3 = k2 + nx
+    e0 = k3 + nx
+    half = 0.5 * h
+    sixth = h / 6.0
+    for _ in range(n):
+        for l in range(nl):  # noqa: E741
+            u = col(S, u0, l, m)
+            p = col(S, p0, l, npar)
+            x = col(S, 0, l, nx)
+            k = ft(x, u, p)
+            S[e0 + 1, l] = pw(x, k, u, p)
+            put(S, k1, l, k)
+            put_axpy(S, t0, 0, l, half, k)
+        for l in range(nl):  # noqa: E741
+            u = col(S, u0, l, m)
+            p = col(S, p0, l, npar)
+            x = col(S, t0, l, nx)
+            k = ft(x, u, p)
+            S[e0 + 2, l] = pw(x, k, u, p)
+            put(S, k2, l, k)
+            put_axpy(S, t0, 0, l, half, k)
+        for l in range(nl):  # noqa: E741
+            u = col(S, u0, l, m)
+            p = col(S, p0, l, npar)
+            x = col(S, t0, l, nx)
+            k = ft(x, u, p)
+            S[e0 + 3, l] = pw(x, k, u, p)
+            put(S, k3, l, k)
+            put_axpy(S, t0, 0, l, h, k)
+        for l in range(nl):  # noqa: E741
+            u = col(S, u0, l, m)
+            p = col(S, p0, l, npar)
+            x = col(S, t0, l, nx)
+            k = ft(x, u, p)
+            e4 = pw(x, k, u, p)
+            put_rk4(S, 0, k1, k2, k3, l, sixth, k)
+            S[e0, l] += sixth * (S[e0 + 1, l] + 2.0 * S[e0 + 2, l] + 2.0 * S[e0 + 3, l] + e4)
+
+
+@njit(cache=True, inline="always")
+def rk4_rows(ft, pw, X, U, P, h, n, out, work, b0, nx, m, npar):  # pragma: no cover - compiled
+    """Rows ``b0 .. b0 + LANES`` (or to the end) through one :func:`rk4_block`: ``out[i]`` the
+    state of ``X[i]`` after ``n`` steps of ``h`` under ``U[i, :m]`` with parameters ``P[i]``
+    (``P[0]`` for every row when ``P`` has one row), ``work[i]`` the integral of ``pw``."""
+    nl = min(LANES, X.shape[0] - b0)
+    S = np.empty((block_rows(nx, m, npar), LANES))
+    e0 = 5 * nx + m + npar
+    shared = P.shape[0] == 1
+    for l in range(nl):  # noqa: E741
+        i = b0 + l
+        r = 0 if shared else i
+        for j in range(nx):
+            S[j, l] = X[i, j]
+        for j in range(m):
+            S[nx + j, l] = U[i, j]
+        for j in range(npar):
+            S[nx + m + j, l] = P[r, j]
+        S[e0, l] = 0.0
+    rk4_block(ft, pw, S, nl, nx, m, npar, h, n)
+    for l in range(nl):  # noqa: E741
+        for j in range(nx):
+            out[b0 + l, j] = S[j, l]
+        work[b0 + l] = S[e0, l]
 
 
 @njit(cache=True, inline="always")

@@ -1,9 +1,10 @@
 """The step kernel's motor work against RK4 of the augmented state on the SAME stages.
 
-``rk4_work`` reads each stage's joint rates from the stage derivative (``_kpower``) instead of
-recomputing them from the state; that must equal, to rounding, the classical RK4 of
-``z = (x, E)`` with ``E' = model.motor_power(x, u)`` at the kernel's own substep, and the joint
-velocities it reports must be the model's at the new state.
+``rk4_work`` and the block kernels read each stage's joint rates from the stage derivative
+(the models' ``_power_t``) instead of recomputing them from the state; that must equal, to
+rounding, the classical RK4 of ``z = (x, E)`` with ``E' = model.motor_power(x, u)`` at the
+kernel's own substep, and the joint velocities it reports must be the model's at the new
+state.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from tests.envs.conftest import DYNAMIC
 from wheelgym.envs.core import WheelCore
 from wheelgym.envs.robots import get_spec
 from wheelgym.envs.robots._body import layout
+from wheelgym.integrators import LANES
 
 
 def _rk4_augmented(model, x0, u, h, n):
@@ -49,27 +51,31 @@ def _moving_state(core, rng):
     return x
 
 
+@pytest.mark.parametrize("rows", [1, LANES + 3], ids=["row", "blocks"])
 @pytest.mark.parametrize("robot", DYNAMIC)
-def test_step_work_is_rk4_of_augmented_state(robot):
+def test_step_work_is_rk4_of_augmented_state(robot, rows):
+    """One row (the single env's path) and 11 rows (ThreeWheel and SkidSteer step these in
+    vectorised blocks of LANES robots): every row's state, work and joint rates."""
     spec = get_spec(robot)
-    core = WheelCore(robot, 1)
-    core.reset(None, [np.random.default_rng(0)])
+    core = WheelCore(robot, rows)
+    core.reset(None, [np.random.default_rng(k) for k in range(rows)])
     rng = np.random.default_rng(4)
-    x0 = _moving_state(core, rng)
-    X = x0[None].copy()
-    A = rng.uniform(-0.9, 0.9, (1, core.m))
+    X = np.array([_moving_state(core, rng) for _ in range(rows)])
+    A = rng.uniform(-0.9, 0.9, (rows, core.m))
     Xo = np.empty_like(X)
     B = np.zeros_like(core.B)
     F = np.zeros_like(core.F)
     assert spec.k_env_step(X, A, core.LH, core.P, core.h, core.n_sub, Xo, B, F)
-    assert F[0, 1]
     lay = layout(core.m, B.shape[1] - 2 * core.m - 11)
-    u = B[0, lay["U"]]
-    np.testing.assert_allclose(u, core.LO[0] + 0.5 * (A[0] + 1.0) * (core.HI[0] - core.LO[0]),
-                               rtol=1e-14, atol=1e-14)
-    x_ref, e_ref = _rk4_augmented(core.model, x0, u, core.h, core.n_sub)
-    np.testing.assert_allclose(Xo[0], x_ref, rtol=1e-11, atol=1e-12)
-    assert abs(e_ref) > 1e-3  # the motors did work
-    assert abs(B[0, lay["energy"]] - e_ref) <= 1e-11 * abs(e_ref)
-    jv = core.model.joint_velocity(Xo[0])[: core.m]
-    np.testing.assert_allclose(B[0, lay["jv"]], jv, rtol=1e-12, atol=1e-12)
+    for i in range(rows):
+        assert F[i, 1]
+        u = B[i, lay["U"]]
+        np.testing.assert_allclose(
+            u, core.LO[i] + 0.5 * (A[i] + 1.0) * (core.HI[i] - core.LO[i]), rtol=1e-14,
+            atol=1e-14)
+        x_ref, e_ref = _rk4_augmented(core.model, X[i], u, core.h, core.n_sub)
+        np.testing.assert_allclose(Xo[i], x_ref, rtol=1e-11, atol=1e-12)
+        assert abs(e_ref) > 1e-3  # the motors did work
+        assert abs(B[i, lay["energy"]] - e_ref) <= 1e-11 * abs(e_ref)
+        jv = core.model.joint_velocity(Xo[i])[: core.m]
+        np.testing.assert_allclose(B[i, lay["jv"]], jv, rtol=1e-12, atol=1e-12)

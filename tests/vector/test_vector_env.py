@@ -82,6 +82,19 @@ def test_matches_single_env_pymunk_ranges():
     rollout_equal(vec, ref, 12)
 
 
+@pytest.mark.parametrize("robot", ["ThreeWheel", "SkidSteer"])
+def test_matches_single_env_in_vectorised_blocks(robot):
+    """From LANES rows on, the dynamic robots step in blocks of robots evaluated together
+    (integrators.rk4_block): 11 sub-envs (a full block and a partial one) still equal the
+    single env, which steps a row at a time, bit for bit."""
+    from wheelgym.integrators import LANES
+
+    vec, ref = make_pair(robot, LANES + 3, NEXT, task="goal", action_mode="torque",
+                         max_episode_steps=7)
+    nterm, ntrunc = rollout_equal(vec, ref, 15, bang=0.3)
+    assert ntrunc > 0
+
+
 @pytest.mark.parametrize("robot,action_mode", [("DiffDrive", None), ("ThreeWheel", "velocity")])
 def test_matches_single_env_long_track_episodes(robot, action_mode):
     """Track episodes long enough that every sub-env's reference window moves on (every

@@ -21,24 +21,27 @@ from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.integrators import (
     DERIV1_SIG,
+    LANES,
     STEP1_SIG,
     all_finite,
     check_one,
     check_step_args,
     finite_status,
     rk4_inplace,
+    rk4_rows,
 )
 from wheelgym.models import friction as _friction
 from wheelgym.models._base import Model, Params
-from wheelgym.models.friction import sgn_s
+from wheelgym.models.friction import sgn_s, sincos
 
-# kernels here inline integrators.rk4_inplace and friction.sgn_s
+# kernels here inline integrators.rk4_inplace, integrators.rk4_block and friction.sgn_s
 _numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
 
 __all__ = ["SkidSteerParams", "SkidSteer"]
 
 # Layout of the packed parameter vector read by the kernels.
 _M, _I, _A, _B, _C, _R, _XICR, _MUS, _MUL, _KS, _G, _TMAX = range(12)
+_NP = 12  # length of the packed vector
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,16 +152,14 @@ def _resist(vx, wz, p):  # pragma: no cover - compiled
     return sum_fs, -xicr * sum_fl + m_r, power  # SS-3 Rbar
 
 
-@njit(cache=True)
-def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+@njit(cache=True, inline="always")
+def _deriv_t(x, u, p):  # pragma: no cover - compiled
+    """The state derivative as a 5-tuple. ``x``, ``u``, ``p`` are arrays or tuples read by
+    constant index only, so the block kernels (tuples, no branches) vectorise."""
     yaw, vx, wz = x[2], x[3], x[4]
     m, xicr = p[_M], p[_XICR]
     vy = -xicr * wz  # SS-1
-    cy = math.cos(yaw)
-    sy = math.sin(yaw)
-    out[0] = cy * vx - sy * vy  # physics.md section 0 (three-wheel paper (15)-(16))
-    out[1] = sy * vx + cy * vy
-    out[2] = wz
+    sy, cy = sincos(yaw)
     r0, r1, _ = _resist(vx, wz, p)
     tau_l = u[0] + u[1]
     tau_r = u[2] + u[3]
@@ -166,8 +167,25 @@ def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
     #   Cbar eta = m x_icr (wz wz, -wz vx), Bbar = (1/r) [[1, 1], [-c, c]]
     f0 = (tau_l + tau_r) / p[_R] - m * xicr * wz * wz - r0
     f1 = p[_C] * (tau_r - tau_l) / p[_R] + m * xicr * wz * vx - r1
-    out[3] = f0 / m
-    out[4] = f1 / (m * xicr * xicr + p[_I])
+    # physics.md section 0 (three-wheel paper (15)-(16)), then SS-3
+    return (cy * vx - sy * vy, sy * vx + cy * vy, wz, f0 / m, f1 / (m * xicr * xicr + p[_I]))
+
+
+@njit(cache=True)
+def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    d = _deriv_t(x, u, p)
+    for j in range(5):
+        out[j] = d[j]
+
+
+@njit(cache=True, inline="always")
+def _power_t(x, k, u, p):  # pragma: no cover - compiled
+    """Motor power ``tau . omega`` (W) at state ``x``: the state holds no wheel angles, so
+    from SS-1 ``tau_L omega_L + tau_R omega_R = ((tau_L + tau_R) vx + c (tau_R - tau_L) wz)
+    / r`` (= Bbar (tau_L, tau_R) . eta of SS-3), one division."""
+    tl = u[0] + u[1]
+    tr = u[2] + u[3]
+    return ((tl + tr) * x[3] + p[_C] * (tr - tl) * x[4]) / p[_R]
 
 
 @njit(cache=True)
@@ -197,14 +215,23 @@ def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
     return finite_status(x)
 
 
+@njit(cache=True, error_model="numpy")
+def _k_block(X, U, P, h, n, out, work, b0):  # pragma: no cover - compiled
+    """Rows ``b0 .. b0 + LANES`` as one vectorised block (``integrators.rk4_rows``), as
+    ThreeWheel's ``_k_block``: ``out`` the new states, ``work`` the motor work (J); ``U`` read
+    in its first 4 columns, ``P`` one row (shared) or one per row; NumPy's error model (no
+    exception branch in the vectorised loops)."""
+    rk4_rows(_deriv_t, _power_t, X, U, P, h, n, out, work, b0, 5, 4, _NP)
+
+
 @njit(cache=True)
 def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
         return False
-    work = np.empty((5, X.shape[1]))
-    for i in range(X.shape[0]):
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b0 in range(0, X.shape[0], LANES):
+        _k_block(X, U, P, h, n, out, work, b0)
     return True
 
 
@@ -212,10 +239,10 @@ def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
 def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
         return False
-    for i in prange(X.shape[0]):
-        work = np.empty((5, X.shape[1]))
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b in prange((X.shape[0] + LANES - 1) // LANES):
+        _k_block(X, U, P, h, n, out, work, b * LANES)
     return True
 
 

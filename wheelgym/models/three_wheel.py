@@ -30,17 +30,20 @@ from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.integrators import (
     DERIV1_SIG,
+    LANES,
     STEP1_SIG,
     all_finite,
     check_one,
     check_step_args,
     finite_status,
     rk4_inplace,
+    rk4_rows,
 )
+from wheelgym.models import friction as _friction
 from wheelgym.models._base import Model, Params
 
-# kernels here inline integrators.rk4_inplace
-_numba_cache.guard(__file__, _integrators.__file__)
+# kernels here inline integrators.rk4_inplace and integrators.rk4_block
+_numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
 
 __all__ = ["ThreeWheelParams", "ThreeWheel", "noc_terms", "RK4_REAL_STABILITY_LIMIT"]
 
@@ -51,6 +54,7 @@ RK4_REAL_STABILITY_LIMIT = 2.785
 (_MB, _IB, _MW, _IWY, _IWZ, _R, _D, _A1X, _A1Y, _A2X, _A2Y, _A3X, _A3Y, _MUR, _MUP, _RHO,
  _BD, _BS, _KS, _G, _TDM, _TSM, _KW, _KZ, _MT, _INVD, _INVR, _M0) = range(28)
 # _M0 .. _M0 + 5: the constant part M_0 of M (upper triangle), see ThreeWheelParams.pack
+_NP = _M0 + 6  # length of the packed vector
 
 
 def _cross2(a: np.ndarray, b: np.ndarray) -> float:
@@ -186,71 +190,11 @@ class ThreeWheelParams(Params):
 
 
 # ---------------------------------------------------------------------------- fast libm pieces
-# The derivative makes 8 sin/cos and 6 arctan calls. These two functions give libm's values
-# to within 2 ulp (tested against ``math``) at about half the cost of the libm calls: one
-# shared argument reduction for sin and cos, and a rational arctan without libm's
-# extra-precision paths; both are the standard Cephes algorithms. In the derivative this
-# cuts about 10% (the calls partly overlap with the arithmetic).
-
-_PIO2_1 = 1.57079625129699707031  # pi/2 in three parts (Cody-Waite; k * _PIO2_1 exact
-_PIO2_2 = 7.54978941586159635336e-8  # for |k| < 2^27, so |x| < 2e8 rad)
-_PIO2_3 = 5.39030285815811905290e-15
-_TWO_OVER_PI = 0.63661977236758134308
-_TAN_3PI_8 = 2.41421356237309504880
-_ATAN_MOREBITS = 6.123233995736765886130e-17
-
-
-@njit(cache=True, inline="always")
-def _sincos(x):  # pragma: no cover - compiled
-    """``(sin x, cos x)`` to 2 ulp for ``|x| < 2e8`` (near the zeros to ``1e-31 |x|``, the
-    accuracy of the reduction); Cephes polynomials on ``|r| <= pi/4``."""
-    k = math.floor(x * _TWO_OVER_PI + 0.5)
-    r = ((x - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
-    z = r * r
-    s = r + r * z * (((((1.58962301576546568060e-10 * z - 2.50507477628578072866e-8) * z
-                        + 2.75573136213857245213e-6) * z - 1.98412698295895385996e-4) * z
-                      + 8.33333333332211858878e-3) * z - 1.66666666666666307295e-1)
-    c = 1.0 - 0.5 * z + z * z * (((((-1.13585365213876817300e-11 * z
-                                     + 2.08757008419747316778e-9) * z
-                                    - 2.75573141792967388112e-7) * z
-                                   + 2.48015872888517045348e-5) * z
-                                  - 1.38888888888730564116e-3) * z
-                                 + 4.16666666666665929218e-2)
-    q = int(k) & 3
-    if q == 0:
-        return s, c
-    if q == 1:
-        return c, -s
-    if q == 2:
-        return -s, -c
-    return -c, s
-
-
-@njit(cache=True, inline="always")
-def _atan(x):  # pragma: no cover - compiled
-    """``arctan x`` to 1 ulp (Cephes: reduction to ``|t| <= 0.66``, rational 4/5 fit)."""
-    ax = abs(x)
-    if ax > _TAN_3PI_8:
-        y = 0.5 * math.pi
-        t = -1.0 / ax
-        extra = _ATAN_MOREBITS
-    elif ax > 0.66:
-        y = 0.25 * math.pi
-        t = (ax - 1.0) / (ax + 1.0)
-        extra = 0.5 * _ATAN_MOREBITS
-    else:
-        y = 0.0
-        t = ax
-        extra = 0.0
-    z = t * t
-    num = ((((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z
-             - 7.500855792314704667340e1) * z - 1.228866684490136173410e2) * z
-           - 6.485021904942025371773e1)
-    den = (((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z
-              + 4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z
-           + 1.945506571482613964425e2)
-    r = y + (t * (z * num / den) + t + extra)
-    return r if x >= 0.0 else -r
+# The derivative makes 8 sin/cos and 6 arctan calls: friction.sincos and friction.atan (libm's
+# values to 2 ulp, branch-free so that the block kernels vectorise).
+_sincos = _friction.sincos
+_atan = _friction.atan
+_TWO_OVER_PI = _friction.TWO_OVER_PI
 
 
 @njit(cache=True, inline="always")
@@ -466,29 +410,43 @@ def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
             gu * p[_INVR])
 
 
-@njit(cache=True)
-def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+@njit(cache=True, inline="always")
+def _deriv_t(x, u, p):  # pragma: no cover - compiled
+    """The state derivative as a 12-tuple. ``x``, ``u``, ``p`` are arrays or tuples read by
+    constant index only, so the block kernels (tuples, no branches) vectorise."""
     yaw = x[2]
     vx = x[3]
     vy = x[4]
     wz = x[5]
     cs = _trig(x[6], x[7], x[8])
     sy, cy = _sincos(yaw)
-    out[0] = cy * vx - sy * vy  # physics.md section 0 (three-wheel paper (15)-(16))
-    out[1] = sy * vx + cy * vy
-    out[2] = wz
     n = _loads(cs, p)
     # TW-3: M udot = J^T tau + Q_f - c; the platform's share, then each module's
     m = (p[_M0], p[_M0 + 1], p[_M0 + 2], p[_M0 + 3], p[_M0 + 4], p[_M0 + 5])
     f = (p[_MB] * wz * vy, -p[_MB] * wz * vx, 0.0)
-    m, f, out[6], out[9] = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f)
-    m, f, out[7], out[10] = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f)
-    m, f, out[8], out[11] = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f)
-    f0, f1, f2 = f
-    a0, a1, a2 = _solve3(m, f0, f1, f2)
-    out[3] = a0
-    out[4] = a1
-    out[5] = a2
+    m, f, psid1, thd1 = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f)
+    m, f, psid2, thd2 = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f)
+    m, f, psid3, thd3 = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f)
+    a0, a1, a2 = _solve3(m, f[0], f[1], f[2])
+    # physics.md section 0 (three-wheel paper (15)-(16)), TW-3 and the TW-1 joint rates
+    return (cy * vx - sy * vy, sy * vx + cy * vy, wz, a0, a1, a2,
+            psid1, psid2, psid3, thd1, thd2, thd3)
+
+
+@njit(cache=True)
+def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    d = _deriv_t(x, u, p)
+    for j in range(12):
+        out[j] = d[j]
+
+
+@njit(cache=True, inline="always")
+def _power_t(x, k, u, p):  # pragma: no cover - compiled
+    """Motor power ``tau . qdot`` (W) at a state whose derivative is ``k``: the derivative
+    holds the TW-1 joint rates (TW-5 order), ``k[9 + i]`` drive and ``k[6 + i]`` steering;
+    motor order [drive_1..3, steer_1..3]."""
+    return (u[0] * k[9] + u[1] * k[10] + u[2] * k[11]
+            + u[3] * k[6] + u[4] * k[7] + u[5] * k[8])
 
 
 @njit(cache=True)
@@ -519,14 +477,25 @@ def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
     return finite_status(x)
 
 
+@njit(cache=True, error_model="numpy")
+def _k_block(X, U, P, h, n, out, work, b0):  # pragma: no cover - compiled
+    """Rows ``b0 .. b0 + LANES`` as one vectorised block (``integrators.rk4_rows``): ``out``
+    the new states, ``work`` the motor work (J); ``U`` is read in its first 6 columns, ``P``
+    has one row (shared) or one per row. The models' batch steps and the environments' step
+    kernels all call this one compiled function. NumPy's error model: no exception branch
+    inside the vectorised loops (a division by zero gives inf/NaN, which the callers'
+    finiteness checks catch)."""
+    rk4_rows(_deriv_t, _power_t, X, U, P, h, n, out, work, b0, 12, 6, _NP)
+
+
 @njit(cache=True)
 def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
         return False
-    work = np.empty((5, X.shape[1]))
-    for i in range(X.shape[0]):
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b0 in range(0, X.shape[0], LANES):
+        _k_block(X, U, P, h, n, out, work, b0)
     return True
 
 
@@ -534,10 +503,10 @@ def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
 def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
     if not (all_finite(X) and all_finite(U)):
         return False
-    for i in prange(X.shape[0]):
-        work = np.empty((5, X.shape[1]))
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b in prange((X.shape[0] + LANES - 1) // LANES):
+        _k_block(X, U, P, h, n, out, work, b * LANES)
     return True
 
 
@@ -617,8 +586,9 @@ class ThreeWheel(Model):
     over, and any perturbation (including integration error) is amplified at that rate while
     it does. Validation manoeuvres therefore drive forward (:meth:`validation_manoeuvre`).
 
-    Cost (2-core machine, CPU time): about 0.17 us per derivative, 0.68 us per RK4 substep,
-    1.7 us for ``step`` on one state with one substep.
+    Cost (2-core machine, one core): about 0.17 us per derivative, 0.68 us per RK4 substep on
+    one state (1.7 us for ``step`` with one substep); a batch steps in vectorised blocks of
+    ``integrators.LANES`` robots at about 0.2 us per robot-substep (``_k_block``, 3.3x).
     """
 
     state_names = ("x", "y", "yaw", "vx", "vy", "wz", "psi_1", "psi_2", "psi_3",

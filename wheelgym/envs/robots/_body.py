@@ -12,7 +12,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["env_step_body", "env_step_body_par", "env_step_row", "rk4_work", "PAR_MIN_ROWS"]
+from wheelgym.integrators import LANES
+
+__all__ = ["env_step_body", "env_step_body_par", "env_step_row", "env_step_block",
+           "env_step_blocks", "env_step_blocks_par", "rk4_work", "PAR_MIN_ROWS"]
 
 #: Batch size from which the environments step with the threaded kernel ``k_env_step_par``
 #: (below it the serial ``k_env_step``; the single env, N = 1, never starts numba's threads).
@@ -85,15 +88,9 @@ def _actions_finite(A):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
-                 work):  # pragma: no cover - compiled
-    """Row ``i`` of :func:`env_step_body` (``work``: ``(5, n_x)`` scratch of this row)."""
+def _scale_row(i, A, LH, B, F):  # pragma: no cover - compiled
+    """Clip row i's actions to [-1, 1] (``F_SAT`` marks a clip); write ``U`` and ``eff``."""
     m = A.shape[1]
-    nx = X.shape[1]
-    o_e = 2 * m
-    o_p = 2 * m + 2
-    o_f = 2 * m + 11
-    nb = B.shape[1]
     s = False
     e = 0.0
     b = B[i]
@@ -108,25 +105,89 @@ def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
         e += a * a
         b[j] = 0.5 * (LH[i, m + j] + LH[i, j]) + 0.5 * a * (LH[i, m + j] - LH[i, j])
     F[i, 0] = s
-    b[o_e + 1] = e / m if m > 0 else 0.0
+    b[2 * m + 1] = e / m if m > 0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _finish_row(jrate, feats, i, X, P, Xo, B, F, acc, m):  # pragma: no cover - compiled
+    """After the substeps of row i (new state in ``Xo[i]``, motor work ``acc``): back to
+    ``X[i]`` where not finite (``F_OK`` False), else add the work; write the joint rates
+    ``jv``, pose, twist, features and the internal-force measure."""
+    o_e = 2 * m
+    o_p = 2 * m + 2
+    o_f = 2 * m + 11
+    nb = B.shape[1]
+    b = B[i]
     x = Xo[i]
-    for k in range(nx):
-        x[k] = X[i, k]
-    u = b[0:m]
     p = P[i]
-    acc = rk4_work(f, kpower, x, u, p, h, n, work)
     good = np.isfinite(acc)
-    for k in range(nx):
+    for k in range(x.shape[0]):
         if not np.isfinite(x[k]):
             good = False
     if not good:
-        for k in range(nx):
+        for k in range(x.shape[0]):
             x[k] = X[i, k]
     else:
         b[o_e] += acc
     jrate(x, p, b[m:2 * m])
     F[i, 1] = good
-    b[o_p + 6] = feats(x, u, p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
+    b[o_p + 6] = feats(x, b[0:m], p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
+
+
+@njit(cache=True, inline="always")
+def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
+                 work):  # pragma: no cover - compiled
+    """Row ``i`` of :func:`env_step_body` (``work``: ``(5, n_x)`` scratch of this row)."""
+    _scale_row(i, A, LH, B, F)
+    m = A.shape[1]
+    x = Xo[i]
+    for k in range(X.shape[1]):
+        x[k] = X[i, k]
+    acc = rk4_work(f, kpower, x, B[i, 0:m], P[i], h, n, work)
+    _finish_row(jrate, feats, i, X, P, Xo, B, F, acc, m)
+
+
+@njit(cache=True, inline="always")
+def env_step_block(block, jrate, feats, b0, X, A, LH, P, h, n, Xo, B, F,
+                   W):  # pragma: no cover - compiled
+    """Rows ``b0 .. b0 + LANES`` of :func:`env_step_body` with the substeps in the model's
+    compiled block kernel ``block(X, U, P, h, n, out, work, b0)`` (several robots per
+    instruction, ``integrators.rk4_block``; the bits of :func:`env_step_row`). ``W`` is
+    ``(N,)`` scratch for the motor work."""
+    end = min(b0 + LANES, X.shape[0])
+    for i in range(b0, end):
+        _scale_row(i, A, LH, B, F)
+    block(X, B, P, h, n, Xo, W, b0)  # the inputs U are B's first m columns
+    for i in range(b0, end):
+        _finish_row(jrate, feats, i, X, P, Xo, B, F, W[i], A.shape[1])
+
+
+@njit(cache=True, inline="always")
+def env_step_blocks(block, jrate, feats, X, A, LH, P, h, n, Xo, B,
+                    F):  # pragma: no cover - compiled
+    """:func:`env_step_body` through :func:`env_step_block`, block after block."""
+    if not _actions_finite(A):
+        return False
+    W = np.empty(X.shape[0])
+    for b0 in range(0, X.shape[0], LANES):
+        env_step_block(block, jrate, feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
+    return True
+
+
+@njit(cache=True, inline="always")
+def env_step_blocks_par(rows, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    """:func:`env_step_blocks` with the blocks spread over numba's threads (``prange``).
+
+    ``rows(b0, X, A, LH, P, h, n, Xo, B, F, W)`` is the robot's compiled (not inlined) kernel
+    around :func:`env_step_block` (the parfor passes would otherwise analyse the inlined
+    model code, which numba's array analysis rejects for ThreeWheel's tuple helpers). Each
+    block runs the same code, so every row's bits are the serial kernel's."""
+    if not _actions_finite(A):
+        return False
+    W = np.empty(X.shape[0])
+    for b in prange((X.shape[0] + LANES - 1) // LANES):
+        rows(b * LANES, X, A, LH, P, h, n, Xo, B, F, W)
+    return True
 
 
 @njit(cache=True, inline="always")

@@ -26,10 +26,11 @@ class RobotSpec:
         name: robot name used in ids (``"SkidSteer"``...).
         model_cls: the :class:`~wheelgym.models.Model` subclass.
         k_env_step: compiled ``k_env_step(X, A, LH, P, h, n, Xo, B, F) -> bool`` (see
-            ``_body.env_step_body``).
-        k_env_step_par: the same kernel with the rows spread over numba's threads
-            (``parallel=True``, ``_body.env_step_body_par``; same bits per row), used from
-            ``_body.PAR_MIN_ROWS`` rows.
+            ``_body.env_step_body``; ThreeWheel and SkidSteer step ``LANES`` rows or more in
+            vectorised blocks, ``_body.env_step_blocks``, with the same bits per row).
+        k_env_step_par: the same kernel with the rows (or blocks) spread over numba's
+            threads (``parallel=True``; same bits per row), used from ``_body.PAR_MIN_ROWS``
+            rows.
         input_bounds: ``input_bounds(params, mode) -> (lo, hi)`` physical bounds of the
             action in that action mode (torques N·m, or the kinematic inputs).
         action_modes: valid ``action_mode`` values, the default first.
@@ -73,12 +74,15 @@ def guard_cache(module_file: str, *deps: str) -> None:
     """Drop a robot module's numba cache when a file its kernels inline has changed.
 
     The robot kernels inline the model's derivative and ``_body.env_step_body`` from other
-    files; see :mod:`wheelgym._numba_cache`. ``_body.py`` is always a dependency.
+    files (and link the models' compiled block kernels, which inline ``integrators.py``);
+    see :mod:`wheelgym._numba_cache`. ``_body.py`` and ``integrators.py`` are always
+    dependencies.
     """
     import os
 
     from wheelgym import _numba_cache
+    from wheelgym import integrators as _integrators
 
     body = os.path.join(os.path.dirname(os.path.abspath(module_file)), "_body.py")
-    _numba_cache.guard(module_file, body, *deps)
+    _numba_cache.guard(module_file, body, _integrators.__file__, *deps)
 

@@ -8,23 +8,28 @@ import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
-from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
+from wheelgym.envs.robots._body import (
+    env_step_block,
+    env_step_blocks,
+    env_step_blocks_par,
+    env_step_body,
+)
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
-from wheelgym.models.skid_steer import _C, _R, _XICR, SkidSteer, SkidSteerParams, _deriv_one
+from wheelgym.integrators import LANES
+from wheelgym.models.skid_steer import (
+    _C,
+    _R,
+    _XICR,
+    SkidSteer,
+    SkidSteerParams,
+    _deriv_one,
+    _k_block,
+    _power_t,
+)
 
 guard_cache(__file__, sys.modules[SkidSteer.__module__].__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
-
-
-@njit(cache=True, inline="always")
-def _kpower(x, k, u, p):  # pragma: no cover - compiled
-    # tau . omega at a stage; the state holds no wheel angles, so the SS-1 rates are not in k:
-    # tau_L omega_L + tau_R omega_R = ((tau_L + tau_R) vx + c (tau_R - tau_L) wz) / r
-    # (= Bbar (tau_L, tau_R) . eta of SS-3), one division a stage
-    tl = u[0] + u[1]
-    tr = u[2] + u[3]
-    return ((tl + tr) * x[3] + p[_C] * (tr - tl) * x[4]) / p[_R]
 
 
 @njit(cache=True, inline="always")
@@ -51,17 +56,20 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    if X.shape[0] < LANES:  # the single env: a row at a time (the same bits as the blocks)
+        return env_step_body(_deriv_one, _power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+                             F)
+    return env_step_blocks(_k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
-def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+def k_env_block(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
+    env_step_block(_k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
 
 
 @njit(cache=True, parallel=True)
 def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body_par(k_env_row, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_blocks_par(k_env_block, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params: SkidSteerParams, mode: str) -> tuple[np.ndarray, np.ndarray]:

@@ -9,8 +9,14 @@ import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
-from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
+from wheelgym.envs.robots._body import (
+    env_step_block,
+    env_step_blocks,
+    env_step_blocks_par,
+    env_step_body,
+)
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
+from wheelgym.integrators import LANES
 from wheelgym.models.three_wheel import (
     _D,
     _INVD,
@@ -20,6 +26,8 @@ from wheelgym.models.three_wheel import (
     ThreeWheelParams,
     _deriv_one,
     _gh,
+    _k_block,
+    _power_t,
     _solve3,
     _trig,
 )
@@ -27,15 +35,6 @@ from wheelgym.models.three_wheel import (
 guard_cache(__file__, sys.modules[ThreeWheel.__module__].__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
-
-
-@njit(cache=True, inline="always")
-def _kpower(x, k, u, p):  # pragma: no cover - compiled
-    # tau . qdot at a stage: the derivative k = f(x) holds the TW-1 joint rates (TW-5 state
-    # order), k[9 + i] = thetadot_i (drive) and k[6 + i] = psidot_i (steer); motor order
-    # [drive_1..3, steer_1..3]. No trig: _deriv_one has just evaluated them.
-    return (u[0] * k[9] + u[1] * k[10] + u[2] * k[11]
-            + u[3] * k[6] + u[4] * k[7] + u[5] * k[8])
 
 
 @njit(cache=True, inline="always")
@@ -90,17 +89,20 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    if X.shape[0] < LANES:  # the single env: a row at a time (the same bits as the blocks)
+        return env_step_body(_deriv_one, _power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+                             F)
+    return env_step_blocks(_k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
-def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+def k_env_block(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
+    env_step_block(_k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
 
 
 @njit(cache=True, parallel=True)
 def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body_par(k_env_row, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_blocks_par(k_env_block, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params: ThreeWheelParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
