@@ -23,6 +23,7 @@ __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]
 
 #: Bound of positions in the observation (m).
 POS_CLIP = 12.0
+_TWO_PI = math.pi - -math.pi  # the scale numpy's uniform(-pi, pi) uses
 
 
 class Task:
@@ -110,14 +111,16 @@ class GoalTask(Task):
 
     def reset_rows(self, idx, rngs, options):
         poses = np.zeros((len(idx), 3))
+        d_lo, d_hi = self.goal_dist
         for n, i in enumerate(idx):
-            rng = rngs[i]
-            start = np.array([*rng.uniform(-1.0, 1.0, 2), rng.uniform(-math.pi, math.pi)])
-            d = rng.uniform(*self.goal_dist)
-            a = rng.uniform(-math.pi, math.pi)
-            self.goal[i] = (start[0] + d * math.cos(a), start[1] + d * math.sin(a),
-                            rng.uniform(-math.pi, math.pi))
-            poses[n] = start
+            # six uniform draws in one call: start x, y in [-1, 1], start yaw, goal distance,
+            # goal direction, goal yaw; ``lo + (hi - lo) u`` is Generator.uniform's arithmetic
+            u = rngs[i].random(6)
+            x, y = -1.0 + 2.0 * u[0], -1.0 + 2.0 * u[1]
+            d = d_lo + (d_hi - d_lo) * u[3]
+            a = -math.pi + _TWO_PI * u[4]
+            poses[n] = (x, y, -math.pi + _TWO_PI * u[2])
+            self.goal[i] = (x + d * math.cos(a), y + d * math.sin(a), -math.pi + _TWO_PI * u[5])
             self.prev[i] = d
         return poses
 
