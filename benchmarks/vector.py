@@ -115,13 +115,14 @@ def fmt(x: float) -> str:
     return f"{x:,.0f}"
 
 
-def section_steps(ns: tuple[int, ...], sync_max: int, min_time: float) -> None:
+def section_steps(ns: tuple[int, ...], sync_max: int, min_time: float,
+                  robots: tuple[str, ...] = ROBOTS) -> None:
     print("\n### Env-steps/s, goal task (higher is faster)\n")
     print("| robot | N | single env | SyncVectorEnv | native vector | WheelCore.step alone "
           "| native / single | native / Sync |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     checks = []
-    for robot in ROBOTS:
+    for robot in robots:
         eid = env_id(robot)
         for n in ns:
             s = single_rate(eid, min_time)
@@ -246,6 +247,8 @@ def main() -> None:
                     help="largest N for SyncVectorEnv (default 1024, quick 256)")
     ap.add_argument("--ppo-robots", default="ThreeWheel,SkidSteer",
                     help="robots of the ppo section (comma-separated)")
+    ap.add_argument("--robots", default=",".join(ROBOTS),
+                    help=f"robots of the steps section (comma-separated; default {ROBOTS})")
     args = ap.parse_args()
     quick = args.quick
     min_time = 0.3 if quick else 1.0
@@ -258,7 +261,10 @@ def main() -> None:
     print(f"# wheelgym vector benchmark ({'quick' if quick else 'full'}; rates are the best of "
           "5 rounds, each column measured next to the others at the same N)")
     if "steps" in sections:
-        section_steps(ns, sync_max, min_time)
+        robots = tuple(args.robots.split(","))
+        if not set(robots) <= set(ROBOTS):
+            ap.error(f"--robots: valid names are {list(ROBOTS)}")
+        section_steps(ns, sync_max, min_time, robots)
     if "navigate" in sections:
         section_navigate(ns, min_time)
     if "memory" in sections:

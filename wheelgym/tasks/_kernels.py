@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True, inline="always")
@@ -46,6 +46,51 @@ def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
     return (not ok) or math.hypot(b[o + 5], b[o + 6]) > vmax or abs(b[o + 7]) > wmax
 
 
+@njit(cache=True, inline="always")
+def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+              terms):  # pragma: no cover - compiled
+    """Row i of :func:`k_goal`."""
+    o = 2 * m  # energy column; pose at o + 2
+    nf = B.shape[1] - (2 * m + 11)
+    tol_p, tol_y, vmax, wmax, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
+                                                      cfg[5], cfg[6])
+    b = B[i]
+    ob = obs[i]
+    dx = goal[i, 0] - b[o + 2]
+    dy = goal[i, 1] - b[o + 3]
+    c = math.cos(b[o + 4])
+    s = math.sin(b[o + 4])
+    d = math.hypot(dx, dy)
+    ey = _wrap(goal[i, 2] - b[o + 4])
+    ob[0] = _clip(c * dx + s * dy, pclip)  # goal in B
+    ob[1] = _clip(-s * dx + c * dy, pclip)
+    ob[2] = math.cos(ey)
+    ob[3] = math.sin(ey)
+    j = _common_tail(b, o, 4, nf, fclip, vclip, wclip, ob)
+    for k in range(ranges.shape[1]):
+        ob[j + k] = ranges[i, k]
+    ok = F[i, 1]
+    over = _overspeed(ok, b, o, vmax, wmax)
+    hit = F[i, 4]
+    win = ok and (not hit) and d < tol_p and abs(ey) < tol_y
+    t = terms[i]
+    t[0] = W[0] * (prev_dist[i] - d)
+    t[1] = -W[1] * abs(ey) / math.pi
+    t[2] = -W[2] * b[o + 1]
+    t[3] = -W[3] * b[o + 8]
+    t[4] = W[4] if win else 0.0
+    t[5] = -W[5] if over else 0.0
+    t[6] = -W[6] if hit else 0.0
+    r = 0.0
+    for k in range(t.shape[0]):
+        r += t[k]
+    b[o + 9] = r
+    F[i, 2] = win or over or hit
+    F[i, 3] = win
+    b[o + 10] = d
+    prev_dist[i] = d  # the next step's progress is measured from here
+
+
 @njit(cache=True)
 def k_goal(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
            terms):  # pragma: no cover - compiled
@@ -54,47 +99,16 @@ def k_goal(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
 
     Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose
     gets the same bits again)."""
-    o = 2 * m  # energy column; pose at o + 2
-    nf = B.shape[1] - (2 * m + 11)
-    tol_p, tol_y, vmax, wmax, pclip, vclip, wclip = (cfg[0], cfg[1], cfg[2], cfg[3], cfg[4],
-                                                      cfg[5], cfg[6])
     for r in range(rows.shape[0]):
-        i = rows[r]
-        b = B[i]
-        ob = obs[i]
-        dx = goal[i, 0] - b[o + 2]
-        dy = goal[i, 1] - b[o + 3]
-        c = math.cos(b[o + 4])
-        s = math.sin(b[o + 4])
-        d = math.hypot(dx, dy)
-        ey = _wrap(goal[i, 2] - b[o + 4])
-        ob[0] = _clip(c * dx + s * dy, pclip)  # goal in B
-        ob[1] = _clip(-s * dx + c * dy, pclip)
-        ob[2] = math.cos(ey)
-        ob[3] = math.sin(ey)
-        j = _common_tail(b, o, 4, nf, fclip, vclip, wclip, ob)
-        for k in range(ranges.shape[1]):
-            ob[j + k] = ranges[i, k]
-        ok = F[i, 1]
-        over = _overspeed(ok, b, o, vmax, wmax)
-        hit = F[i, 4]
-        win = ok and (not hit) and d < tol_p and abs(ey) < tol_y
-        t = terms[i]
-        t[0] = W[0] * (prev_dist[i] - d)
-        t[1] = -W[1] * abs(ey) / math.pi
-        t[2] = -W[2] * b[o + 1]
-        t[3] = -W[3] * b[o + 8]
-        t[4] = W[4] if win else 0.0
-        t[5] = -W[5] if over else 0.0
-        t[6] = -W[6] if hit else 0.0
-        r = 0.0
-        for k in range(t.shape[0]):
-            r += t[k]
-        b[o + 9] = r
-        F[i, 2] = win or over or hit
-        F[i, 3] = win
-        b[o + 10] = d
-        prev_dist[i] = d  # the next step's progress is measured from here
+        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs, terms)
+
+
+@njit(cache=True, parallel=True)
+def k_goal_par(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+               terms):  # pragma: no cover - compiled
+    """:func:`k_goal` with the rows spread over numba's threads (large batches; same bits)."""
+    for r in prange(rows.shape[0]):
+        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs, terms)
 
 
 @njit(cache=True)

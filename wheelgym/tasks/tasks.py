@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from wheelgym.tasks._kernels import k_goal, k_track
+from wheelgym.tasks._kernels import k_goal, k_goal_par, k_track
 from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle, evaluate_batch
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -24,6 +24,16 @@ __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]
 #: Bound of positions in the observation (m).
 POS_CLIP = 12.0
 _TWO_PI = math.pi - -math.pi  # the scale numpy's uniform(-pi, pi) uses
+
+
+def _threaded(n: int) -> bool:
+    """Whether a batch of ``n`` rows uses the threaded task kernel (as the step kernels:
+    from ``PAR_MIN_ROWS`` rows, and never with one numba thread)."""
+    import numba
+
+    from wheelgym.envs.robots._body import PAR_MIN_ROWS
+
+    return n >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
 
 
 class Task:
@@ -99,6 +109,8 @@ class GoalTask(Task):
         self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
                              POS_CLIP, core.vclip, core.wclip])
         self._all = np.arange(N, dtype=np.int64)
+        # the whole batch over numba's threads from PAR_MIN_ROWS rows (same bits per row)
+        self._k_all = k_goal_par if _threaded(N) else k_goal
 
     def term_names(self, spec) -> tuple[str, ...]:
         return tuple(n for n in super().term_names(spec) if n != "collision")
@@ -126,8 +138,9 @@ class GoalTask(Task):
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
         c = self.core
-        k_goal(self._all if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
-               self.ranges, self.cfg, c.fclip, self.W, c.obs, c.terms)
+        k = self._k_all if rows is None else k_goal
+        k(self._all if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
+          self.ranges, self.cfg, c.fclip, self.W, c.obs, c.terms)
 
     def target_pose(self) -> np.ndarray:
         return self.goal

@@ -53,13 +53,13 @@ def _jrate(x, p, out):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
+    cs = _trig(x[6], x[7], x[8])  # (cos psi_1, sin psi_1, ...), the model's sin/cos
     for k in range(3):
         pose[k] = x[k]
         twist[k] = x[3 + k]
-        feat[k] = math.cos(x[6 + k])
-        feat[3 + k] = math.sin(x[6 + k])
+        feat[k] = cs[2 * k]
+        feat[3 + k] = cs[2 * k + 1]
     # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36))
-    cs = _trig(x[6], x[7], x[8])
     J = np.empty((6, 3))
     for i in range(3):
         g, h = _gh(cs, i, p)
