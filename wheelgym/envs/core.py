@@ -320,8 +320,11 @@ class WheelCore:
         for i in idx:
             self._draw_params(int(i), rngs[i])
         poses = self.task.reset_rows(idx, rngs, options)
-        for n, i in enumerate(idx):
-            self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
+        if self.randomize:  # the start state may depend on each row's drawn parameters
+            for n, i in enumerate(idx):
+                self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
+        else:
+            self.X[idx] = self.spec.initial_state(poses, self.base_params)
         self.energy[idx] = 0.0
         self.steps[idx] = 0
         # features at the start state: a zero-substep pass of the step kernel on the reset

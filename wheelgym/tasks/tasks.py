@@ -124,16 +124,21 @@ class GoalTask(Task):
     def reset_rows(self, idx, rngs, options):
         poses = np.zeros((len(idx), 3))
         d_lo, d_hi = self.goal_dist
+        goal, prev = self.goal, self.prev
         for n, i in enumerate(idx):
             # six uniform draws in one call: start x, y in [-1, 1], start yaw, goal distance,
             # goal direction, goal yaw; ``lo + (hi - lo) u`` is Generator.uniform's arithmetic
-            u = rngs[i].random(6)
-            x, y = -1.0 + 2.0 * u[0], -1.0 + 2.0 * u[1]
-            d = d_lo + (d_hi - d_lo) * u[3]
-            a = -math.pi + _TWO_PI * u[4]
-            poses[n] = (x, y, -math.pi + _TWO_PI * u[2])
-            self.goal[i] = (x + d * math.cos(a), y + d * math.sin(a), -math.pi + _TWO_PI * u[5])
-            self.prev[i] = d
+            u0, u1, u2, u3, u4, u5 = rngs[i].random(6).tolist()
+            x, y = -1.0 + 2.0 * u0, -1.0 + 2.0 * u1
+            d = d_lo + (d_hi - d_lo) * u3
+            a = -math.pi + _TWO_PI * u4
+            poses[n, 0] = x
+            poses[n, 1] = y
+            poses[n, 2] = -math.pi + _TWO_PI * u2
+            goal[i, 0] = x + d * math.cos(a)
+            goal[i, 1] = y + d * math.sin(a)
+            goal[i, 2] = -math.pi + _TWO_PI * u5
+            prev[i] = d
         return poses
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
