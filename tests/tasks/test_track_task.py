@@ -23,7 +23,7 @@ def _direct(task: TrackTask, i: int, step: int) -> np.ndarray:
 
 @pytest.mark.parametrize("horizon", [500, 40])
 def test_windows_follow_the_reference_and_hold_its_end(horizon):
-    N = 5
+    N = TrackTask.whole_up_to + 3  # a batch: moving windows
     core = WheelCore("DiffDrive", N, task="track", horizon=horizon)
     rngs = [np.random.default_rng(100 + i) for i in range(N)]
     core.reset(None, rngs)
@@ -62,10 +62,13 @@ def test_windows_follow_the_reference_and_hold_its_end(horizon):
         np.testing.assert_array_equal(task.reference_ahead(task.ahead), task.reference_ahead(0))
 
 
-def test_memory_per_row_is_fixed():
-    short = WheelCore("DiffDrive", 2, task="track", horizon=100).task
-    long = WheelCore("DiffDrive", 2, task="track", horizon=100_000).task
-    assert short.ref.nbytes == long.ref.nbytes == 2 * TrackTask.window * 6 * 8
+def test_memory_per_row_is_fixed_in_batches():
+    n = TrackTask.whole_up_to + 1
+    short = WheelCore("DiffDrive", n, task="track", horizon=100).task
+    long = WheelCore("DiffDrive", n, task="track", horizon=100_000).task
+    assert short.ref.nbytes == long.ref.nbytes == n * TrackTask.window * 6 * 8
+    single = WheelCore("DiffDrive", 1, task="track", horizon=100).task
+    assert single.ref.shape == (1, single.L, 6)  # the single env: the whole reference
 
 
 def test_reference_ahead_rejects_offsets_outside_the_window():

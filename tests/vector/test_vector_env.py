@@ -102,13 +102,17 @@ def test_matches_single_env_long_track_episodes(robot, action_mode):
     kw = {"task": "track", "max_episode_steps": 90}
     if action_mode:
         kw["action_mode"] = action_mode
-    vec, ref = make_pair(robot, 3, NEXT, **kw)
+    from wheelgym.tasks.tasks import TrackTask
+
+    n = TrackTask.whole_up_to + 2  # windows here, the whole reference in the single envs
+    vec, ref = make_pair(robot, n, NEXT, **kw)
     rng = np.random.default_rng(5)
     assert_same(vec.reset(seed=3), ref.reset(seed=3), "reset")
     moved = 0
     for t in range(140):
         if t == 20:
-            m = np.array([False, True, False])
+            m = np.zeros(n, dtype=bool)
+            m[1] = True
             assert_same(vec.reset(options={"reset_mask": m}),
                         ref.reset(options={"reset_mask": m.copy()}), f"partial reset {t}")
         a = (0.05 * rng.uniform(-1, 1, vec.action_space.shape)).astype(np.float32)

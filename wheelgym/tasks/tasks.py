@@ -253,12 +253,15 @@ class NavigateTask(GoalTask):
 class TrackTask(Task):
     """Follow a reference trajectory (circle, figure-eight or the paper's quintic circle).
 
-    Each row holds its reference object and a window of ``window`` control steps of it (pose,
-    body twist, twist rate); the window moves on when a preview would leave it, and all due
-    rows of one reference class are evaluated in one NumPy pass
-    (:func:`~wheelgym.tasks.references.evaluate_batch`). Memory per row is therefore fixed
-    (about 4.6 KB at ``window = 64``) whatever the episode length. The reference is evaluated
-    up to step ``L - 1 = horizon + preview_steps[-1] + 1`` and holds its last point after.
+    In a batch of more than ``whole_up_to`` robots each row holds its reference object and a
+    window of ``window`` control steps of it (pose, body twist, twist rate); the window moves
+    on when a preview would leave it, and all due rows of one reference class are evaluated
+    in one NumPy pass (:func:`~wheelgym.tasks.references.evaluate_batch`), so memory per row
+    is fixed (about 4.6 KB at ``window = 64``) whatever the episode length. Smaller batches
+    (the single env) hold the whole reference, evaluated once an episode (a moving window
+    costs it ~4 us a step). Both hold the same values (element-wise evaluation). The
+    reference is evaluated up to step ``L - 1 = horizon + preview_steps[-1] + 1`` and holds
+    its last point after.
     """
 
     name = "track"
@@ -272,8 +275,10 @@ class TrackTask(Task):
     #: A step counts as success (``is_success``) within this distance (m).
     tol_pos = 0.05
     references = ("circle", "figure_eight", "quintic_circle")
-    #: Control steps of the reference held per row.
+    #: Control steps of the reference held per row in a batch.
     window = 64
+    #: Batches of up to this many robots hold the whole reference instead.
+    whole_up_to = 8
 
     def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
@@ -281,7 +286,9 @@ class TrackTask(Task):
         # steps ahead of the current one that are read: the previews and the baseline's k + 1
         self.ahead = int(self.preview_steps[-1]) + 1
         self.L = core.horizon + self.ahead + 1
-        self.nw = min(self.window, self.L)  # window length (steps)
+        # window length (steps): a batch keeps ``window`` steps a row; a few robots (the
+        # single env) keep the whole reference, evaluated once an episode (same values)
+        self.nw = self.L if N <= self.whole_up_to else min(self.window, self.L)
         self.ref = np.zeros((N, self.nw, 6))
         self.ref_rate = np.zeros((N, self.nw, 3))
         self.kstep = np.zeros(N, dtype=np.int64)
