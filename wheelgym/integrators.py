@@ -31,6 +31,7 @@ from numba.extending import overload
 __all__ = [
     "rk4",
     "rk4_inplace",
+    "rk4_power",
     "rk4_block",
     "block_rows",
     "LANES",
@@ -60,10 +61,21 @@ STATUS_DIVERGED = 7
 
 
 @njit(cache=True, inline="always")
-def rk4_inplace(f, x, u, p, h, n, work):  # pragma: no cover - compiled
-    """Advance ``x`` in place by ``n`` RK4 steps of length ``h`` (``u`` held constant).
+def no_power(x, k, u, p):  # pragma: no cover - compiled
+    """Power function of :func:`rk4_power` when no work is integrated."""
+    return 0.0
 
-    ``work`` is scratch of shape ``(5, len(x))``. ``f(x, u, p, out)`` writes the derivative.
+
+@njit(cache=True, inline="always")
+def rk4_power(f, pw, x, u, p, h, n, work):  # pragma: no cover - compiled
+    """Advance ``x`` in place by ``n`` RK4 steps of length ``h`` (``u`` held constant) and
+    return the RK4 integral of the power ``pw(x, k, u, p)`` on the same stages (the motor
+    work of the environments: RK4 of the state augmented with ``E' = u . qdot``, exact to the
+    integrator's order).
+
+    ``work`` is scratch of shape ``(5, len(x))``. ``f(x, u, p, out)`` writes the derivative;
+    ``pw`` gets each stage's state and derivative ``k``, so a model whose derivative holds its
+    joint rates reads them there instead of recomputing them.
     """
     m = x.shape[0]
     k1 = work[0]
@@ -73,19 +85,34 @@ def rk4_inplace(f, x, u, p, h, n, work):  # pragma: no cover - compiled
     tmp = work[4]
     half = 0.5 * h
     sixth = h / 6.0
+    acc = 0.0
     for _ in range(n):
         f(x, u, p, k1)
+        e1 = pw(x, k1, u, p)
         for j in range(m):
             tmp[j] = x[j] + half * k1[j]
         f(tmp, u, p, k2)
+        e2 = pw(tmp, k2, u, p)
         for j in range(m):
             tmp[j] = x[j] + half * k2[j]
         f(tmp, u, p, k3)
+        e3 = pw(tmp, k3, u, p)
         for j in range(m):
             tmp[j] = x[j] + h * k3[j]
         f(tmp, u, p, k4)
+        e4 = pw(tmp, k4, u, p)
         for j in range(m):
             x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        acc += sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
+    return acc
+
+
+@njit(cache=True, inline="always")
+def rk4_inplace(f, x, u, p, h, n, work):  # pragma: no cover - compiled
+    """Advance ``x`` in place by ``n`` RK4 steps of length ``h`` (``u`` held constant):
+    :func:`rk4_power` without a power. ``work`` is scratch of shape ``(5, len(x))``;
+    ``f(x, u, p, out)`` writes the derivative."""
+    rk4_power(f, no_power, x, u, p, h, n, work)
 
 
 # ---------------------------------------------------------------------------- blocks of robots

@@ -1,8 +1,8 @@
 """The step kernel's motor work against RK4 of the augmented state on the SAME stages.
 
-``rk4_work`` and the block kernels read each stage's joint rates from the stage derivative
-(the models' ``_power_t``) instead of recomputing them from the state; that must equal, to
-rounding, the classical RK4 of ``z = (x, E)`` with ``E' = model.motor_power(x, u)`` at the
+``integrators.rk4_power`` and the block kernels read each stage's joint rates from the stage
+derivative (the models' ``_power_t``) instead of recomputing them from the state; that must
+equal, to rounding, the classical RK4 of ``z = (x, E)`` with ``E' = model.motor_power(x, u)`` at the
 kernel's own substep, and the joint velocities it reports must be the model's at the new
 state.
 """

@@ -2,8 +2,10 @@
 
 Each robot module binds its model's per-state derivative ``_deriv_one`` and three small per-state
 helpers (stage motor power, joint rates, features) into a cached kernel ``k_env_step`` that inlines
-:func:`env_step_body`, the same way the models bind ``rk4_inplace`` (a derivative passed at run
-time cannot be cached and costs a call per stage). Every row of the batch is independent and
+:func:`env_step_body` and ``integrators.rk4_power``, the same way the models bind
+``rk4_inplace`` (a derivative passed at run time cannot be cached and costs a call per stage).
+ThreeWheel and SkidSteer step 16 rows or more through their model's vectorised block kernel
+(:func:`env_step_blocks`). Every row of the batch is independent and
 uses its own parameter row ``P[i]``, so a batch of N robots gives each robot the bits of N = 1.
 """
 
@@ -12,56 +14,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from wheelgym.integrators import LANES
+from wheelgym.integrators import LANES, rk4_power
 
 __all__ = ["env_step_body", "env_step_body_par", "env_step_row", "env_step_block",
-           "env_step_blocks", "env_step_blocks_par", "rk4_work", "PAR_MIN_ROWS"]
+           "env_step_blocks", "env_step_blocks_par", "PAR_MIN_ROWS"]
 
 #: Batch size from which the environments step with the threaded kernel ``k_env_step_par``
 #: (below it the serial ``k_env_step``; the single env, N = 1, never starts numba's threads).
 #: Chosen by measurement (benchmarks/vector.py): below ~256 rows the threads' launch
 #: overhead (~10-20 us a call) eats the gain.
 PAR_MIN_ROWS = 256
-
-
-@njit(cache=True, inline="always")
-def rk4_work(f, kpower, x, u, p, h, n, work):  # pragma: no cover - compiled
-    """``n`` RK4 steps of ``x`` (the arithmetic of ``integrators.rk4_inplace``, so the same
-    bits) that also integrate the motor power with the same stages; returns the work. The work
-    is RK4 of the state augmented with ``E' = u . qdot`` (exact to the integrator's order).
-
-    ``kpower(x, k, u, p)`` is the power ``u . qdot`` at the stage state ``x`` whose derivative
-    ``f(x, u, p)`` is ``k``: robots whose state holds the joint angles read ``qdot`` from ``k``
-    instead of recomputing it (ThreeWheel's TW-1 rates would cost three more sin/cos a stage).
-    The substep loop is inside, as in ``rk4_inplace``: the views of ``work`` are taken once."""
-    m = x.shape[0]
-    k1 = work[0]
-    k2 = work[1]
-    k3 = work[2]
-    k4 = work[3]
-    tmp = work[4]
-    half = 0.5 * h
-    sixth = h / 6.0
-    acc = 0.0
-    for _ in range(n):
-        f(x, u, p, k1)
-        e1 = kpower(x, k1, u, p)
-        for j in range(m):
-            tmp[j] = x[j] + half * k1[j]
-        f(tmp, u, p, k2)
-        e2 = kpower(tmp, k2, u, p)
-        for j in range(m):
-            tmp[j] = x[j] + half * k2[j]
-        f(tmp, u, p, k3)
-        e3 = kpower(tmp, k3, u, p)
-        for j in range(m):
-            tmp[j] = x[j] + h * k3[j]
-        f(tmp, u, p, k4)
-        e4 = kpower(tmp, k4, u, p)
-        for j in range(m):
-            x[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        acc += sixth * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
-    return acc
 
 
 #: Column layout of the per-row float block ``B`` for ``m`` inputs (see :func:`layout`).
@@ -143,7 +105,7 @@ def env_step_row(f, kpower, jrate, feats, i, X, A, LH, P, h, n, Xo, B, F,
     x = Xo[i]
     for k in range(X.shape[1]):
         x[k] = X[i, k]
-    acc = rk4_work(f, kpower, x, B[i, 0:m], P[i], h, n, work)
+    acc = rk4_power(f, kpower, x, B[i, 0:m], P[i], h, n, work)
     _finish_row(jrate, feats, i, X, P, Xo, B, F, acc, m)
 
 
@@ -200,7 +162,8 @@ def env_step_body(f, kpower, jrate, feats, X, A, LH, P, h, n, Xo, B,
     Args:
         f: per-state derivative ``f(x, u, p, out)`` of the model.
         kpower: ``kpower(x, k, u, p) -> float`` motor power ``u . qdot`` (W) at a stage state
-            ``x`` with derivative ``k = f(x, u, p)`` (see :func:`rk4_work`); 0 without motors.
+            ``x`` with derivative ``k = f(x, u, p)`` (see ``integrators.rk4_power``); 0 without
+            motors.
         jrate: ``jrate(x, p, out)`` joint (motor) rates in input order (rad/s), evaluated once
             at the end of the step for ``jv``. Robots without motors write zeros.
         feats: ``feats(x, u, p, pose, twist, feat) -> float`` writes the pose (x, y, yaw), the
