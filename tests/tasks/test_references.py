@@ -123,3 +123,30 @@ def test_non_finite_time_raises():
         Circle().evaluate(np.array([0.0, np.inf]))
     with pytest.raises(TypeError):
         Circle(clockwise="yes")
+
+
+@pytest.mark.parametrize("make", [
+    lambda r: Circle(radius=r.uniform(0.5, 2.0), speed=r.uniform(0.2, 1.0),
+                     clockwise=bool(r.integers(2))),
+    lambda r: FigureEight(size=r.uniform(1.0, 2.0), period=r.uniform(5.0, 20.0)),
+    lambda r: QuinticCircle(radius=r.uniform(0.8, 1.5), duration=r.uniform(20.0, 40.0)),
+    lambda r: Line(direction=r.uniform(-3.0, 3.0), speed=r.uniform(0.2, 1.0)),
+    lambda r: PointToPoint(goal=(2.0, r.uniform(-1.0, 1.0), 0.3)),
+], ids=["circle", "figure_eight", "quintic_circle", "line", "point_to_point"])
+def test_evaluate_batch_is_each_reference_bit_for_bit(make):
+    """The track task evaluates due rows of one class in one pass: row r of the batch must be
+    ``refs[r].evaluate(t[r])`` exactly (parameters become broadcasting columns)."""
+    from wheelgym.tasks import evaluate_batch
+
+    rng = np.random.default_rng(11)
+    refs = [make(rng) for _ in range(7)]
+    t = rng.uniform(-1.0, 50.0, (7, 64))
+    batch = evaluate_batch(refs, t)
+    for r, ref in enumerate(refs):
+        for got, want in zip(batch, ref.evaluate(t[r]), strict=True):
+            assert got[r].tobytes() == want.tobytes()
+    with pytest.raises(ValueError, match="one class"):
+        evaluate_batch([refs[0], Circle()] if not isinstance(refs[0], Circle)
+                       else [refs[0], Line()], t[:2])
+    with pytest.raises(ValueError, match="shape"):
+        evaluate_batch(refs, t[:3])
