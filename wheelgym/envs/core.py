@@ -151,8 +151,9 @@ class WheelCore:
         # the one spreading rows over numba's threads (same bits per row, _dispatch.py); the
         # serial kernel below PAR_MIN_ROWS or with NUMBA_NUM_THREADS=1, so the single env never
         # starts numba's threads (read from the config: asking numba starts them)
-        par = N >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
-        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if par \
+        #: Whether this batch uses numba's threads (the step kernel, the goal task's kernel).
+        self.threaded = N >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
+        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if self.threaded \
             else spec.k_env_step
 
         # per-row state
@@ -191,7 +192,7 @@ class WheelCore:
         self.coll = self.F[:, F_COLL]
         self.ok[:] = True
         self.steps = np.zeros(N, dtype=np.int64)  # control steps since each row's reset
-        self._all = np.arange(N, dtype=np.int64)
+        self.all_rows = np.arange(N, dtype=np.int64)  # every row index (kernels' row lists)
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
@@ -314,7 +315,7 @@ class WheelCore:
         if len(rngs) != N:
             raise ValueError(f"rngs must hold {N} generators, got {len(rngs)}")
         self.rngs = rngs
-        idx = self._all if rows is None else np.asarray(rows, dtype=np.int64)
+        idx = self.all_rows if rows is None else np.asarray(rows, dtype=np.int64)
         if idx.size == 0:
             return self.obs
         for i in idx:
@@ -398,5 +399,5 @@ class WheelCore:
         self.steps += 1
         self.task.evaluate()
         if self.obs_noise > 0:
-            self._noise(self._all if active is None else np.flatnonzero(active))
+            self._noise(self.all_rows if active is None else np.flatnonzero(active))
         return self.obs, self.reward, self.term, self.info_buffers

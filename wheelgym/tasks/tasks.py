@@ -26,16 +26,6 @@ POS_CLIP = 12.0
 _TWO_PI = math.pi - -math.pi  # the scale numpy's uniform(-pi, pi) uses
 
 
-def _threaded(n: int) -> bool:
-    """Whether a batch of ``n`` rows uses the threaded task kernel (as the step kernels:
-    from ``PAR_MIN_ROWS`` rows, and never with one numba thread)."""
-    import numba
-
-    from wheelgym.envs.robots._body import PAR_MIN_ROWS
-
-    return n >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
-
-
 class Task:
     """Base class: term names, default weights, observation layout and bounds."""
 
@@ -108,9 +98,8 @@ class GoalTask(Task):
         self.ranges = np.zeros((N, self.n_rays))
         self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
                              POS_CLIP, core.vclip, core.wclip])
-        self._all = np.arange(N, dtype=np.int64)
-        # the whole batch over numba's threads from PAR_MIN_ROWS rows (same bits per row)
-        self._k_all = k_goal_par if _threaded(N) else k_goal
+        # the whole batch over numba's threads where the core uses them (same bits per row)
+        self._k_all = k_goal_par if core.threaded else k_goal
 
     def term_names(self, spec) -> tuple[str, ...]:
         return tuple(n for n in super().term_names(spec) if n != "collision")
@@ -144,7 +133,7 @@ class GoalTask(Task):
     def evaluate(self, rows: np.ndarray | None = None) -> None:
         c = self.core
         k = self._k_all if rows is None else k_goal
-        k(self._all if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
+        k(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
           self.ranges, self.cfg, c.fclip, self.W, c.obs, c.terms)
 
     def target_pose(self) -> np.ndarray:
@@ -298,7 +287,6 @@ class TrackTask(Task):
         self.t0 = np.zeros(N)  # reference time at step 0 (s)
         self.place = np.zeros((N, 5))  # rigid placement: cos th, sin th, ox, oy, th
         self._slack = 0  # steps before any row's window must move on
-        self._all = np.arange(N, dtype=np.int64)
         self.cfg = np.array([core.spec.v_max, core.spec.w_max, self.lost_dist, self.tol_pos,
                              POS_CLIP, core.vclip, core.wclip])
 
@@ -378,7 +366,7 @@ class TrackTask(Task):
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
         c = self.core
-        k_track(self._all if rows is None else rows, c.B, c.F, c.m, self.ref, self.kstep,
+        k_track(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.ref, self.kstep,
                 self.kbase, self.L, self.preview_steps, self.cfg, c.fclip, self.W, c.obs,
                 c.terms)
 
@@ -400,7 +388,7 @@ class TrackTask(Task):
 
     def reference_at(self, rows=slice(None)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Reference pose, twist and twist rate at each row's current step."""
-        r = self._all[rows]
+        r = self.core.all_rows[rows]
         k = self._column()[rows]
         return self.ref[r, k, :3], self.ref[r, k, 3:6], self.ref_rate[r, k]
 
@@ -409,7 +397,7 @@ class TrackTask(Task):
         ``preview_steps[-1] + 1``, the span every window covers)."""
         if not 0 <= ahead <= self.ahead:
             raise ValueError(f"ahead must be in [0, {self.ahead}], got {ahead!r}")
-        return self.ref[self._all, self._column(ahead)]
+        return self.ref[self.core.all_rows, self._column(ahead)]
 
     def path(self, i: int, stride: int = 1) -> np.ndarray:
         """Row ``i``'s whole reference path ``(n, 2)`` (m) from step 0 to ``L - 1``, every
