@@ -326,23 +326,25 @@ class WheelCore:
                 self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
         else:
             self.X[idx] = self.spec.initial_state(poses, self.base_params)
-        self.energy[idx] = 0.0
         self.steps[idx] = 0
         # features at the start state: a zero-substep pass of the step kernel on the reset
-        # rows' copies (a partial reset costs its rows only)
+        # rows' copies of the blocks (a partial reset costs its rows only), which writes pose,
+        # twist, features and joint rates; then no torque, effort, work or internal force yet,
+        # and the blocks go back in one scatter each
         Xs = self.X[idx]
         Bs = self.B[idx]
         Fs = self.F[idx]
-        Bs[:, 2 * self.m] = 0.0  # the pass adds no work; keep the energy column clean
+        lay = self._lay
+        Bs[:, lay["energy"]] = 0.0  # the pass adds no work
         A0 = np.zeros((idx.size, self.m))
         self.spec.k_env_step(Xs, A0, self.LH[idx], self.P[idx], self.h, 0, Xs.copy(), Bs, Fs)
-        for k in ("pose", "twist", "feat", "jv"):
-            getattr(self, k)[idx] = Bs[:, self._lay[k]]
-        self.U[idx] = 0.0
-        self.eff[idx] = 0.0
-        self.xf[idx] = 0.0
-        self.sat[idx] = False
-        self.ok[idx] = True
+        Bs[:, lay["U"]] = 0.0
+        Bs[:, lay["eff"]] = 0.0
+        Bs[:, lay["xf"]] = 0.0
+        Fs[:, F_SAT] = False
+        Fs[:, F_OK] = True
+        self.B[idx] = Bs
+        self.F[idx] = Fs
         self.task.evaluate(idx)
         self._noise(idx)
         return self.obs

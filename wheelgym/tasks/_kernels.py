@@ -14,14 +14,30 @@ import math
 
 from numba import njit, prange
 
+from wheelgym import _numba_cache
+from wheelgym.models import friction as _friction
+from wheelgym.models.friction import sincos
+
+# the kernels inline friction.sincos
+_numba_cache.guard(__file__, _friction.__file__)
+
 
 @njit(cache=True, inline="always")
 def _clip(a, lim):  # pragma: no cover - compiled
     return min(max(a, -lim), lim)
 
 @njit(cache=True, inline="always")
-def _wrap(a):  # pragma: no cover - compiled
-    return math.atan2(math.sin(a), math.cos(a))
+def _wrap_sc(a):  # pragma: no cover - compiled
+    """``(wrap(a), sin a, cos a)``: ``a`` wrapped to (-pi, pi] and its sine and cosine (the
+    observation's ``cos``/``sin`` of the wrapped angle: one sincos, no libm calls)."""
+    s, c = sincos(a)
+    return math.atan2(s, c), s, c
+
+
+@njit(cache=True, inline="always")
+def _norm2(x, y):  # pragma: no cover - compiled
+    """``sqrt(x^2 + y^2)`` (poses and twists are far from overflow: no hypot needed)."""
+    return math.sqrt(x * x + y * y)
 
 # Block layouts (wheelgym.envs.robots._body.layout): pose at 2m+2, twist at 2m+5, eff 2m+1,
 # xf 2m+8, reward 2m+9, err 2m+10, feat from 2m+11; flags F: 0 sat, 1 ok, 2 term, 3 succ,
@@ -43,7 +59,7 @@ def _common_tail(b, o, j, nf, fclip, vclip, wclip, obs_i):  # pragma: no cover -
 
 @njit(cache=True, inline="always")
 def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
-    return (not ok) or math.hypot(b[o + 5], b[o + 6]) > vmax or abs(b[o + 7]) > wmax
+    return (not ok) or _norm2(b[o + 5], b[o + 6]) > vmax or abs(b[o + 7]) > wmax
 
 
 @njit(cache=True, inline="always")
@@ -58,14 +74,13 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
     ob = obs[i]
     dx = goal[i, 0] - b[o + 2]
     dy = goal[i, 1] - b[o + 3]
-    c = math.cos(b[o + 4])
-    s = math.sin(b[o + 4])
-    d = math.hypot(dx, dy)
-    ey = _wrap(goal[i, 2] - b[o + 4])
+    s, c = sincos(b[o + 4])
+    d = _norm2(dx, dy)
+    ey, sy, cy = _wrap_sc(goal[i, 2] - b[o + 4])
     ob[0] = _clip(c * dx + s * dy, pclip)  # goal in B
     ob[1] = _clip(-s * dx + c * dy, pclip)
-    ob[2] = math.cos(ey)
-    ob[3] = math.sin(ey)
+    ob[2] = cy
+    ob[3] = sy
     j = _common_tail(b, o, 4, nf, fclip, vclip, wclip, ob)
     for k in range(ranges.shape[1]):
         ob[j + k] = ranges[i, k]
@@ -129,16 +144,15 @@ def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
         k = min(kstep[i], L - 1) - kbase[i]
         px = b[o + 2]
         py = b[o + 3]
-        c = math.cos(b[o + 4])
-        s = math.sin(b[o + 4])
+        s, c = sincos(b[o + 4])
         dx = ref[i, k, 0] - px
         dy = ref[i, k, 1] - py
-        e = math.hypot(dx, dy)
-        ey = _wrap(ref[i, k, 2] - b[o + 4])
+        e = _norm2(dx, dy)
+        ey, sy, cy = _wrap_sc(ref[i, k, 2] - b[o + 4])
         ob[0] = _clip(c * dx + s * dy, pclip)  # reference in B
         ob[1] = _clip(-s * dx + c * dy, pclip)
-        ob[2] = math.cos(ey)
-        ob[3] = math.sin(ey)
+        ob[2] = cy
+        ob[3] = sy
         ob[4] = _clip(ref[i, k, 3], vclip)  # reference twist in its own frame
         ob[5] = _clip(ref[i, k, 4], vclip)
         ob[6] = _clip(ref[i, k, 5], wclip)

@@ -50,6 +50,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
+from wheelgym.envs.robots._body import F_OK, F_SAT, F_SUCC
 
 __all__ = [
     "WheelVectorEnv",
@@ -308,24 +309,32 @@ class WheelVectorEnv(VectorEnv):
         hold the reset values for rows just reset); ``reset`` rows get zero reward terms and
         the reset-only keys ``params`` and ``task``.
 
-        The masks are rows of one block and the reward terms rows of one copy (independent,
-        contiguous arrays to the caller): fewer allocations per step."""
+        Few allocations per step: the float entries are column views of one copy of the
+        core's float block, the flags of one copy of its flag block, the masks rows of one
+        array, the reward terms rows of one copy. Each step's arrays are new (the caller may
+        keep or change them) and no two entries overlap."""
         c = self.core
         nm = self._nmotor
         nt = len(self._tidx)
+        lay = c._lay
+        m = c.m
+        B = c.B.copy()
+        F = c.F.copy()
         masks = np.empty((11 + nt, self.num_envs), dtype=np.bool_)
         masks[:] = rows
+        ok = F[:, F_OK]
+        np.logical_not(ok, out=ok)
         info: dict[str, Any] = {
-            "pose": c.pose.copy(), "_pose": masks[0],
-            "twist": c.twist.copy(), "_twist": masks[1],
-            "motor_torque": c.U[:, :nm].copy(), "_motor_torque": masks[2],
-            "joint_velocity": c.jv[:, :nm].copy(), "_joint_velocity": masks[3],
-            "tracking_error": c.err.copy(), "_tracking_error": masks[4],
-            "energy": c.energy.copy(), "_energy": masks[5],
-            "internal_force": c.xf.copy(), "_internal_force": masks[6],
-            "saturated": c.sat.copy(), "_saturated": masks[7],
-            "is_success": c.succ.copy(), "_is_success": masks[8],
-            "numerical_failure": ~c.ok, "_numerical_failure": masks[9],
+            "pose": B[:, lay["pose"]], "_pose": masks[0],
+            "twist": B[:, lay["twist"]], "_twist": masks[1],
+            "motor_torque": B[:, :nm], "_motor_torque": masks[2],
+            "joint_velocity": B[:, m:m + nm], "_joint_velocity": masks[3],
+            "tracking_error": B[:, lay["err"]], "_tracking_error": masks[4],
+            "energy": B[:, lay["energy"]], "_energy": masks[5],
+            "internal_force": B[:, lay["xf"]], "_internal_force": masks[6],
+            "saturated": F[:, F_SAT], "_saturated": masks[7],
+            "is_success": F[:, F_SUCC], "_is_success": masks[8],
+            "numerical_failure": ok, "_numerical_failure": masks[9],
         }
         tv = c.terms.T[self._tidx]  # (n_terms, N), a copy
         if reset is not None:
@@ -345,26 +354,32 @@ class WheelVectorEnv(VectorEnv):
         N = self.num_envs
         idx = np.flatnonzero(reset)
         params: dict[str, Any] = {}
-        for i in idx:
-            for k, v in c.drawn[i].items():
-                if k not in params:
-                    params[k] = np.zeros(N)
-                    params["_" + k] = np.zeros(N, dtype=np.bool_)
-                params[k][i] = v
-                params["_" + k][i] = True
+        if c.randomize:
+            for i in idx:
+                for k, v in c.drawn[i].items():
+                    if k not in params:
+                        params[k] = np.zeros(N)
+                        params["_" + k] = np.zeros(N, dtype=np.bool_)
+                    params[k][i] = v
+                    params["_" + k][i] = True
         task = c.task
-        tinfo: dict[str, Any] = {"name": np.full(N, None, dtype=object)}
-        tinfo["name"][idx] = c.task_name
+        name = np.full(N, None, dtype=object)
+        name[idx] = c.task_name
+        tinfo: dict[str, Any] = {"name": name}
         if hasattr(task, "goal"):
-            tinfo["goal"] = _masked(task.goal, reset)
+            goal = np.zeros_like(task.goal)
+            goal[idx] = task.goal[idx]
+            tinfo["goal"] = goal
         if hasattr(task, "kind"):
             ref = np.full(N, None, dtype=object)
             for i in idx:
                 ref[i] = task.kind[i]
             tinfo["reference"] = ref
-        for k in list(tinfo):
-            tinfo["_" + k] = reset.copy()
-        return {"params": params, "_params": reset.copy(), "task": tinfo, "_task": reset.copy()}
+        masks = np.empty((len(tinfo) + 2, N), dtype=np.bool_)
+        masks[:] = reset
+        for j, k in enumerate(list(tinfo)):
+            tinfo["_" + k] = masks[2 + j]
+        return {"params": params, "_params": masks[0], "task": tinfo, "_task": masks[1]}
 
     def _mask_info(self, info: dict[str, Any], mask: np.ndarray) -> dict[str, Any]:
         """``info`` restricted to ``mask`` (entries outside zeroed, masks and-ed)."""
