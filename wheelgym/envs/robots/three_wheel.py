@@ -59,30 +59,35 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
         twist[k] = x[3 + k]
         feat[k] = cs[2 * k]
         feat[3 + k] = cs[2 * k + 1]
-    # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36))
-    J = np.empty((6, 3))
-    for i in range(3):
-        g, h = _gh(cs, i, p)
-        for a in range(3):
-            J[i, a] = g[a] / p[_R]
-            J[3 + i, a] = h[a] / p[_D]
-        J[3 + i, 2] -= 1.0
+    # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36));
+    # J's rows as tuples (no array per row): drive rows g_i / r, then steer rows h_i / d - e_3
+    r = p[_R]
+    d = p[_D]
+    g1, h1 = _gh(cs, 0, p)
+    g2, h2 = _gh(cs, 1, p)
+    g3, h3 = _gh(cs, 2, p)
+    J = ((g1[0] / r, g1[1] / r, g1[2] / r), (g2[0] / r, g2[1] / r, g2[2] / r),
+         (g3[0] / r, g3[1] / r, g3[2] / r),
+         (h1[0] / d, h1[1] / d, h1[2] / d - 1.0), (h2[0] / d, h2[1] / d, h2[2] / d - 1.0),
+         (h3[0] / d, h3[1] / d, h3[2] / d - 1.0))
     m00 = m01 = m02 = m11 = m12 = m22 = 0.0
     f0 = f1 = f2 = 0.0
     for k in range(6):
-        m00 += J[k, 0] * J[k, 0]
-        m01 += J[k, 0] * J[k, 1]
-        m02 += J[k, 0] * J[k, 2]
-        m11 += J[k, 1] * J[k, 1]
-        m12 += J[k, 1] * J[k, 2]
-        m22 += J[k, 2] * J[k, 2]
-        f0 += J[k, 0] * u[k]
-        f1 += J[k, 1] * u[k]
-        f2 += J[k, 2] * u[k]
+        j = J[k]
+        m00 += j[0] * j[0]
+        m01 += j[0] * j[1]
+        m02 += j[0] * j[2]
+        m11 += j[1] * j[1]
+        m12 += j[1] * j[2]
+        m22 += j[2] * j[2]
+        f0 += j[0] * u[k]
+        f1 += j[1] * u[k]
+        f2 += j[2] * u[k]
     y0, y1, y2 = _solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
     s = 0.0
     for k in range(6):
-        e = u[k] - (J[k, 0] * y0 + J[k, 1] * y1 + J[k, 2] * y2)
+        j = J[k]
+        e = u[k] - (j[0] * y0 + j[1] * y1 + j[2] * y2)
         s += e * e
     return math.sqrt(s)
 
