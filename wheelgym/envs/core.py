@@ -276,11 +276,9 @@ class WheelCore:
 
     # ------------------------------------------------------------------ reset
     def _draw_params(self, i: int, rng: np.random.Generator) -> None:
+        """Draw row i's randomised parameters (``randomize`` set) and write its rows of
+        ``P``, ``LO``, ``HI``."""
         base = self.base_params
-        if not self.randomize:
-            self.params_rows[i] = base
-            self.drawn[i] = {}
-            return
         changes: dict[str, Any] = {}
         drawn: dict[str, float] = {}
         for group in self.spec.randomize:  # fixed order: reproducible draws
@@ -318,8 +316,14 @@ class WheelCore:
         idx = self.all_rows if rows is None else np.asarray(rows, dtype=np.int64)
         if idx.size == 0:
             return self.obs
-        for i in idx:
-            self._draw_params(int(i), rngs[i])
+        if self.randomize:
+            for i in idx:
+                self._draw_params(int(i), rngs[i])
+        else:  # the base parameters (P, LO, HI already hold them)
+            base = self.base_params
+            for i in idx.tolist():
+                self.params_rows[i] = base
+                self.drawn[i] = {}
         poses = self.task.reset_rows(idx, rngs, options)
         if self.randomize:  # the start state may depend on each row's drawn parameters
             for n, i in enumerate(idx):

@@ -111,23 +111,21 @@ class GoalTask(Task):
         return names, np.array(high)
 
     def reset_rows(self, idx, rngs, options):
-        poses = np.zeros((len(idx), 3))
         d_lo, d_hi = self.goal_dist
-        goal, prev = self.goal, self.prev
-        for n, i in enumerate(idx):
+        out = []  # per row: start x, y, yaw, goal x, y, yaw, distance (one array at the end)
+        for i in idx:
             # six uniform draws in one call: start x, y in [-1, 1], start yaw, goal distance,
             # goal direction, goal yaw; ``lo + (hi - lo) u`` is Generator.uniform's arithmetic
             u0, u1, u2, u3, u4, u5 = rngs[i].random(6).tolist()
             x, y = -1.0 + 2.0 * u0, -1.0 + 2.0 * u1
             d = d_lo + (d_hi - d_lo) * u3
             a = -math.pi + _TWO_PI * u4
-            poses[n, 0] = x
-            poses[n, 1] = y
-            poses[n, 2] = -math.pi + _TWO_PI * u2
-            goal[i, 0] = x + d * math.cos(a)
-            goal[i, 1] = y + d * math.sin(a)
-            goal[i, 2] = -math.pi + _TWO_PI * u5
-            prev[i] = d
+            out.append((x, y, -math.pi + _TWO_PI * u2, x + d * math.cos(a), y + d * math.sin(a),
+                        -math.pi + _TWO_PI * u5, d))
+        v = np.array(out).reshape(len(idx), 7)
+        self.goal[idx] = v[:, 3:6]
+        self.prev[idx] = v[:, 6]
+        poses = v[:, :3].copy()
         return poses
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
