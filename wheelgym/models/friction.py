@@ -14,6 +14,8 @@ import math
 
 from numba import njit
 
+from wheelgym.integrators import fma
+
 PIO2_1 = 1.57079625129699707031  # pi/2 in three parts (Cody-Waite; k * PIO2_1 exact
 PIO2_2 = 7.54978941586159635336e-8  # for |k| < 2^27, so |x| < 2e8 rad)
 PIO2_3 = 5.39030285815811905290e-15
@@ -25,19 +27,19 @@ ATAN_MOREBITS = 6.123233995736765886130e-17
 @njit(cache=True, inline="always")
 def sincos(x):  # pragma: no cover - compiled
     """``(sin x, cos x)`` to 2 ulp for ``|x| < 2e8`` (near the zeros to ``1e-31 |x|``, the
-    accuracy of the reduction); Cephes polynomials on ``|r| <= pi/4``."""
+    accuracy of the reduction); Cephes polynomials on ``|r| <= pi/4``, by fused
+    multiply-adds."""
     k = math.floor(x * TWO_OVER_PI + 0.5)
-    r = ((x - k * PIO2_1) - k * PIO2_2) - k * PIO2_3
+    r = fma(-k, PIO2_3, fma(-k, PIO2_2, fma(-k, PIO2_1, x)))
     z = r * r
-    s = r + r * z * (((((1.58962301576546568060e-10 * z - 2.50507477628578072866e-8) * z
-                        + 2.75573136213857245213e-6) * z - 1.98412698295895385996e-4) * z
-                      + 8.33333333332211858878e-3) * z - 1.66666666666666307295e-1)
-    c = 1.0 - 0.5 * z + z * z * (((((-1.13585365213876817300e-11 * z
-                                     + 2.08757008419747316778e-9) * z
-                                    - 2.75573141792967388112e-7) * z
-                                   + 2.48015872888517045348e-5) * z
-                                  - 1.38888888888730564116e-3) * z
-                                 + 4.16666666666665929218e-2)
+    ps = fma(fma(fma(fma(fma(1.58962301576546568060e-10, z, -2.50507477628578072866e-8), z,
+                         2.75573136213857245213e-6), z, -1.98412698295895385996e-4), z,
+                 8.33333333332211858878e-3), z, -1.66666666666666307295e-1)
+    s = fma(r * z, ps, r)
+    pc = fma(fma(fma(fma(fma(-1.13585365213876817300e-11, z, 2.08757008419747316778e-9), z,
+                         -2.75573141792967388112e-7), z, 2.48015872888517045348e-5), z,
+                 -1.38888888888730564116e-3), z, 4.16666666666665929218e-2)
+    c = fma(z * z, pc, fma(-0.5, z, 1.0))
     # quadrant q = k mod 4 picks (s, c), (c, -s), (-s, -c), (-c, s): selects on floats (no
     # branch, no int conversion), so the block kernels vectorise (integrators.rk4_block)
     q = k - 4.0 * math.floor(0.25 * k)
@@ -51,7 +53,8 @@ def sincos(x):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def atan(x):  # pragma: no cover - compiled
-    """``arctan x`` to 1 ulp (Cephes: reduction to ``|t| <= 0.66``, rational 4/5 fit)."""
+    """``arctan x`` to 1 ulp (Cephes: reduction to ``|t| <= 0.66``, rational 4/5 fit, by fused
+    multiply-adds)."""
     ax = abs(x)
     # the three reductions computed and selected (branch-free, so the block kernels
     # vectorise); no division by zero
@@ -63,15 +66,14 @@ def atan(x):  # pragma: no cover - compiled
     t = t_big if big else (t_mid if mid else ax)
     extra = ATAN_MOREBITS if big else (0.5 * ATAN_MOREBITS if mid else 0.0)
     z = t * t
-    num = ((((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z
-             - 7.500855792314704667340e1) * z - 1.228866684490136173410e2) * z
-           - 6.485021904942025371773e1)
-    den = (((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z
-              + 4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z
-           + 1.945506571482613964425e2)
-    r = y + (t * (z * num / den) + t + extra)
+    num = fma(fma(fma(fma(-8.750608600031904122785e-1, z, -1.615753718733365076637e1), z,
+                      -7.500855792314704667340e1), z, -1.228866684490136173410e2), z,
+              -6.485021904942025371773e1)
+    den = fma(fma(fma(fma(z + 2.485846490142306297962e1, z, 1.650270098316988542046e2), z,
+                      4.328810604912902668951e2), z, 4.853903996359136964868e2), z,
+              1.945506571482613964425e2)
+    r = y + (fma(t, z * num / den, t) + extra)
     return r if x >= 0.0 else -r
-
 
 
 @njit(cache=True, inline="always")

@@ -15,11 +15,12 @@ import math
 from numba import njit, prange
 
 from wheelgym import _numba_cache
+from wheelgym import integrators as _integrators
 from wheelgym.models import friction as _friction
 from wheelgym.models.friction import sincos
 
-# the kernels inline friction.sincos
-_numba_cache.guard(__file__, _friction.__file__)
+# the kernels inline friction.sincos (and its integrators.fma)
+_numba_cache.guard(__file__, _friction.__file__, _integrators.__file__)
 
 
 @njit(cache=True, inline="always")
