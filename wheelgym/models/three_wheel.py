@@ -39,6 +39,7 @@ from wheelgym.integrators import (
     rk4_inplace,
     rk4_rows,
 )
+from wheelgym.integrators import fma as _fma
 from wheelgym.models import friction as _friction
 from wheelgym.models._base import Model, Params
 
@@ -191,7 +192,9 @@ class ThreeWheelParams(Params):
 
 # ---------------------------------------------------------------------------- fast libm pieces
 # The derivative makes 8 sin/cos and 6 arctan calls: friction.sincos and friction.atan (libm's
-# values to 2 ulp, branch-free so that the block kernels vectorise).
+# values to 2 ulp, branch-free so that the block kernels vectorise). Sums of products are
+# written with explicit fused multiply-adds (``_fma``, integrators.fma): one instruction and
+# one rounding each, the same in the vectorised blocks and the one-row kernels.
 _sincos = _friction.sincos
 _atan = _friction.atan
 _TWO_OVER_PI = _friction.TWO_OVER_PI
@@ -226,7 +229,7 @@ def _gh(cs, i, p):  # pragma: no cover - compiled
     s = cs[2 * i + 1]
     ax = p[_A1X + 2 * i]
     ay = p[_A1Y + 2 * i]
-    return (c, s, ax * s - ay * c), (-s, c, ax * c + ay * s)
+    return (c, s, _fma(ax, s, -(ay * c))), (-s, c, _fma(ax, c, ay * s))
 
 
 @njit(cache=True, inline="always")
@@ -235,15 +238,15 @@ def _loads(cs, p):  # pragma: no cover - compiled
     triangle, ``N_1 = m g [p_2, p_3] / ([p_2, p_3] + [p_3, p_1] + [p_1, p_2])`` and cyclic,
     which solves ``sum N_i = m g`` and zero moments about the CoM."""
     d = p[_D]
-    x1 = p[_A1X] - d * cs[0]
-    y1 = p[_A1Y] - d * cs[1]
-    x2 = p[_A2X] - d * cs[2]
-    y2 = p[_A2Y] - d * cs[3]
-    x3 = p[_A3X] - d * cs[4]
-    y3 = p[_A3Y] - d * cs[5]
-    c23 = x2 * y3 - y2 * x3
-    c31 = x3 * y1 - y3 * x1
-    c12 = x1 * y2 - y1 * x2
+    x1 = _fma(-d, cs[0], p[_A1X])
+    y1 = _fma(-d, cs[1], p[_A1Y])
+    x2 = _fma(-d, cs[2], p[_A2X])
+    y2 = _fma(-d, cs[3], p[_A2Y])
+    x3 = _fma(-d, cs[4], p[_A3X])
+    y3 = _fma(-d, cs[5], p[_A3Y])
+    c23 = _fma(x2, y3, -(y2 * x3))
+    c31 = _fma(x3, y1, -(y3 * x1))
+    c12 = _fma(x1, y2, -(y1 * x2))
     w = p[_MT] * p[_G] / (c23 + c31 + c12)
     return w * c23, w * c31, w * c12
 
@@ -263,14 +266,20 @@ def _mass_i(g, p):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _dot3(a, vx, vy, wz):  # pragma: no cover - compiled
+    """``a . (vx, vy, wz)`` (``g_i . u``, ``h_i . u`` of TW-1), fused."""
+    return _fma(a[2], wz, _fma(a[1], vy, a[0] * vx))
+
+
+@njit(cache=True, inline="always")
 def _assemble(g, h, a, b, c):  # pragma: no cover - compiled
-    return a * g[0] + b * h[0], a * g[1] + b * h[1], a * g[2] + b * h[2] + c
+    return _fma(a, g[0], b * h[0]), _fma(a, g[1], b * h[1]), _fma(a, g[2], _fma(b, h[2], c))
 
 
 @njit(cache=True, inline="always")
 def _bias_i(gu, hu, wz, p):  # pragma: no cover - compiled
     """Module share ``psidot_i (k_w (h.u) g - k_z (g.u) h)`` of c (TW-3), as (a, b, c)."""
-    psid = hu * p[_INVD] - wz  # TW-1 steering rate
+    psid = _fma(hu, p[_INVD], -wz)  # TW-1 steering rate
     return psid * p[_KW] * hu, -psid * p[_KZ] * gu, 0.0
 
 
@@ -283,7 +292,7 @@ def _friction_i(gu, hu, wz, n_i, p):  # pragma: no cover - compiled
     invr = p[_INVR]
     ks = p[_KS]
     thd = gu * invr  # TW-1 drive rate
-    psid = hu * invd - wz  # TW-1 steering rate
+    psid = _fma(hu, invd, -wz)  # TW-1 steering rate
     roll = p[_MUR] * n_i * _sgn_s(gu, ks)
     scrub = p[_MUP] * n_i * _sgn_s(p[_RHO] * hu * invd, ks) * invd
     visc_s = p[_BS] * psid
@@ -324,8 +333,8 @@ def _bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     c2 = 0.0
     for i in range(3):
         g, h = _gh(cs, i, p)
-        gu = g[0] * vx + g[1] * vy + g[2] * wz
-        hu = h[0] * vx + h[1] * vy + h[2] * wz
+        gu = _dot3(g, vx, vy, wz)
+        hu = _dot3(h, vx, vy, wz)
         ba, bb, bc = _bias_i(gu, hu, wz, p)
         b = _assemble(g, h, ba, bb, bc)
         c0 += b[0]
@@ -343,8 +352,8 @@ def _friction(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     q2 = 0.0
     for i in range(3):
         g, h = _gh(cs, i, p)
-        gu = g[0] * vx + g[1] * vy + g[2] * wz
-        hu = h[0] * vx + h[1] * vy + h[2] * wz
+        gu = _dot3(g, vx, vy, wz)
+        hu = _dot3(h, vx, vy, wz)
         fa, fb, fc = _friction_i(gu, hu, wz, n[i], p)
         f = _assemble(g, h, fa, fb, fc)
         q0 += f[0]
@@ -380,16 +389,16 @@ def _friction_jac_rest(cs, p):  # pragma: no cover - compiled
 def _solve3(m, f0, f1, f2):  # pragma: no cover - compiled
     """Solve the symmetric 3x3 system ``M a = f`` by cofactors (M is positive definite)."""
     m00, m01, m02, m11, m12, m22 = m
-    a00 = m11 * m22 - m12 * m12
-    a01 = m02 * m12 - m01 * m22
-    a02 = m01 * m12 - m02 * m11
-    a11 = m00 * m22 - m02 * m02
-    a12 = m01 * m02 - m00 * m12
-    a22 = m00 * m11 - m01 * m01
-    inv_det = 1.0 / (m00 * a00 + m01 * a01 + m02 * a02)
-    return ((a00 * f0 + a01 * f1 + a02 * f2) * inv_det,
-            (a01 * f0 + a11 * f1 + a12 * f2) * inv_det,
-            (a02 * f0 + a12 * f1 + a22 * f2) * inv_det)
+    a00 = _fma(m11, m22, -(m12 * m12))
+    a01 = _fma(m02, m12, -(m01 * m22))
+    a02 = _fma(m01, m12, -(m02 * m11))
+    a11 = _fma(m00, m22, -(m02 * m02))
+    a12 = _fma(m01, m02, -(m00 * m12))
+    a22 = _fma(m00, m11, -(m01 * m01))
+    inv_det = 1.0 / _fma(m02, a02, _fma(m01, a01, m00 * a00))
+    return (_fma(a02, f2, _fma(a01, f1, a00 * f0)) * inv_det,
+            _fma(a12, f2, _fma(a11, f1, a01 * f0)) * inv_det,
+            _fma(a22, f2, _fma(a12, f1, a02 * f0)) * inv_det)
 
 
 @njit(cache=True, inline="always")
@@ -397,8 +406,8 @@ def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
     """Add module i's shares of M and of ``J^T tau + Q_f - c`` to ``m`` and ``f``; also return
     its TW-1 joint rates ``(psidot_i, thetadot_i)``."""  # pragma: no cover - compiled
     g, h = _gh(cs, i, p)
-    gu = g[0] * vx + g[1] * vy + g[2] * wz
-    hu = h[0] * vx + h[1] * vy + h[2] * wz
+    gu = _dot3(g, vx, vy, wz)
+    hu = _dot3(h, vx, vy, wz)
     a = _mass_i(g, p)
     tb = _bias_i(gu, hu, wz, p)
     tq = _friction_i(gu, hu, wz, n_i, p)
@@ -406,7 +415,7 @@ def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
     df = _assemble(g, h, tt[0] + tq[0] - tb[0], tt[1] + tq[1] - tb[1], tt[2] + tq[2] - tb[2])
     return ((m[0] + a[0], m[1] + a[1], m[2] + a[2], m[3] + a[3], m[4] + a[4], m[5] + a[5]),
             (f[0] + df[0], f[1] + df[1], f[2] + df[2]),
-            hu * p[_INVD] - wz,
+            _fma(hu, p[_INVD], -wz),
             gu * p[_INVR])
 
 
@@ -429,7 +438,7 @@ def _deriv_t(x, u, p):  # pragma: no cover - compiled
     m, f, psid3, thd3 = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f)
     a0, a1, a2 = _solve3(m, f[0], f[1], f[2])
     # physics.md section 0 (three-wheel paper (15)-(16)), TW-3 and the TW-1 joint rates
-    return (cy * vx - sy * vy, sy * vx + cy * vy, wz, a0, a1, a2,
+    return (_fma(cy, vx, -(sy * vy)), _fma(sy, vx, cy * vy), wz, a0, a1, a2,
             psid1, psid2, psid3, thd1, thd2, thd3)
 
 
@@ -445,8 +454,8 @@ def _power_t(x, k, u, p):  # pragma: no cover - compiled
     """Motor power ``tau . qdot`` (W) at a state whose derivative is ``k``: the derivative
     holds the TW-1 joint rates (TW-5 order), ``k[9 + i]`` drive and ``k[6 + i]`` steering;
     motor order [drive_1..3, steer_1..3]."""
-    return (u[0] * k[9] + u[1] * k[10] + u[2] * k[11]
-            + u[3] * k[6] + u[4] * k[7] + u[5] * k[8])
+    return _fma(u[5], k[8], _fma(u[4], k[7], _fma(u[3], k[6], _fma(
+        u[2], k[11], _fma(u[1], k[10], u[0] * k[9])))))
 
 
 @njit(cache=True)

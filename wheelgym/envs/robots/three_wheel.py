@@ -17,6 +17,7 @@ from wheelgym.envs.robots._body import (
 )
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.integrators import LANES
+from wheelgym.integrators import fma as _fma
 from wheelgym.models.three_wheel import (
     _D,
     _INVD,
@@ -25,6 +26,7 @@ from wheelgym.models.three_wheel import (
     ThreeWheel,
     ThreeWheelParams,
     _deriv_one,
+    _dot3,
     _gh,
     _k_block,
     _power_t,
@@ -47,8 +49,8 @@ def _jrate(x, p, out):  # pragma: no cover - compiled
     wz = x[5]
     for i in range(3):
         g, h = _gh(cs, i, p)
-        out[i] = (g[0] * vx + g[1] * vy + g[2] * wz) * p[_INVR]
-        out[3 + i] = (h[0] * vx + h[1] * vy + h[2] * wz) * p[_INVD] - wz
+        out[i] = _dot3(g, vx, vy, wz) * p[_INVR]
+        out[3 + i] = _fma(_dot3(h, vx, vy, wz), p[_INVD], -wz)
 
 
 @njit(cache=True, inline="always")
