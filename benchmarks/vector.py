@@ -10,7 +10,8 @@ Prints Markdown tables (all ratios are measured in the same run, on the same mac
   env (``gym.make``, reset when an episode ends), Gymnasium's ``SyncVectorEnv`` of N single
   envs, and the batch's ``WheelCore.step`` alone (the ceiling: physics, controller and task
   kernels without the vector-env layer). Targets at N = 1024: >= 10x the single env and >= 20x
-  ``SyncVectorEnv``.
+  ``SyncVectorEnv``. The four are timed in interleaved rounds (best of 5 each; rounds 4x
+  longer from N = 1024), so a drift in the machine's speed cannot favour one of them.
 * **navigate**: the ``navigate`` task with the compiled ray caster (``range_backend=
   "analytic"``) and with pymunk segment queries (``"pymunk"``, one space per sub-env).
 * **memory**: bytes per sub-env: ``tracemalloc`` growth of building, resetting and stepping the
@@ -57,7 +58,31 @@ def _rate(step: Callable[[], int], min_time: float, repeats: int = 5) -> float:
     return best
 
 
-def single_rate(eid: str, min_time: float, **kw) -> float:
+def _rates(steps: dict[str, Callable[[], int]], min_time: float,
+           repeats: int = 5) -> dict[str, float]:
+    """:func:`_rate` of several step functions with their rounds interleaved (round r of
+    each, then round r + 1 of each...), so that a change in the machine's speed during the
+    measurement (other load, clock) reaches all of them alike and their ratios stay fair."""
+    for step in steps.values():
+        step()
+    best = dict.fromkeys(steps, 0.0)
+    for _ in range(repeats):
+        for name, step in steps.items():
+            n = 0
+            calls = 0
+            t0 = time.perf_counter()
+            while True:
+                n += step()
+                calls += 1
+                dt = time.perf_counter() - t0
+                if dt >= min_time / repeats and calls >= 2:
+                    break
+            best[name] = max(best[name], n / dt)
+    return best
+
+
+def single_step(eid: str, **kw) -> Callable[[], int]:
+    """A step function (64 steps of one single env, reset at episode ends) for :func:`_rate`."""
     env = gym.make(eid, **kw)
     env.reset(seed=0)
     acts = np.random.default_rng(0).uniform(-1, 1, (64, *env.action_space.shape)) \
@@ -69,10 +94,15 @@ def single_rate(eid: str, min_time: float, **kw) -> float:
                 env.reset()
         return len(acts)
 
-    return _rate(step, min_time)
+    return step
 
 
-def vector_rate(venv, min_time: float) -> float:
+def single_rate(eid: str, min_time: float, **kw) -> float:
+    return _rate(single_step(eid, **kw), min_time)
+
+
+def vector_step(venv) -> Callable[[], int]:
+    """A step function (one step of every sub-env, random actions) for :func:`_rate`."""
     venv.reset(seed=0)
     acts = np.random.default_rng(0).uniform(-1, 1, (8, *venv.action_space.shape)) \
         .astype(np.float32)
@@ -84,12 +114,17 @@ def vector_rate(venv, min_time: float) -> float:
         k[0] += 1
         return n
 
-    return _rate(step, min_time)
+    return step
 
 
-def core_rate(venv, min_time: float) -> float:
-    """The batch's ``WheelCore.step`` alone (physics, controller, task; no vector-env layer):
-    the ceiling of the vector env."""
+def vector_rate(venv, min_time: float) -> float:
+    return _rate(vector_step(venv), min_time)
+
+
+def core_step(venv) -> Callable[[], int]:
+    """A step function of the batch's ``WheelCore.step`` alone (physics, controller, task; no
+    vector-env layer): the ceiling of the vector env. It steps ``venv``'s core behind the
+    vector env's back: give it a vector env of its own."""
     core = venv.unwrapped.core
     venv.reset(seed=0)
     acts = np.random.default_rng(0).uniform(-1, 1, (8, *venv.action_space.shape))
@@ -100,7 +135,7 @@ def core_rate(venv, min_time: float) -> float:
         k[0] += 1
         return core.num
 
-    return _rate(step, min_time)
+    return step
 
 
 def native(eid: str, n: int, **kw):
@@ -125,12 +160,14 @@ def section_steps(ns: tuple[int, ...], sync_max: int, min_time: float,
     for robot in robots:
         eid = env_id(robot)
         for n in ns:
-            s = single_rate(eid, min_time)
-            venv = native(eid, n)
-            v = vector_rate(venv, min_time)
-            c = core_rate(venv, min_time)
+            steps = {"single": single_step(eid), "native": vector_step(native(eid, n)),
+                     "core": core_step(native(eid, n))}
             if n <= sync_max:
-                sv = vector_rate(sync(eid, n), min_time)
+                steps["sync"] = vector_step(sync(eid, n))
+            r = _rates(steps, 4 * min_time if n >= 1024 else min_time)
+            s, v, c = r["single"], r["native"], r["core"]
+            if n <= sync_max:
+                sv = r["sync"]
                 sync_s, ratio = fmt(sv), f"{v / sv:.1f}x"
             else:
                 sync_s = ratio = "-"
@@ -259,7 +296,7 @@ def main() -> None:
     if not set(sections) <= valid:
         ap.error(f"--sections: valid names are {sorted(valid)}")
     print(f"# wheelgym vector benchmark ({'quick' if quick else 'full'}; rates are the best of "
-          "5 rounds, each column measured next to the others at the same N)")
+          "5 rounds; the steps table times its columns in interleaved rounds at each N)")
     if "steps" in sections:
         robots = tuple(args.robots.split(","))
         if not set(robots) <= set(ROBOTS):
