@@ -19,15 +19,14 @@ from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.integrators import LANES
 from wheelgym.integrators import fma as _fma
 from wheelgym.models.three_wheel import (
-    _D,
     _INVD,
     _INVR,
-    _R,
     ThreeWheel,
     ThreeWheelParams,
     _deriv_one,
     _dot3,
     _gh,
+    _jrows_i,
     _k_block,
     _power_t,
     _solve3,
@@ -62,16 +61,15 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
         feat[k] = cs[2 * k]
         feat[3 + k] = cs[2 * k + 1]
     # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36));
-    # J's rows as tuples (no array per row): drive rows g_i / r, then steer rows h_i / d - e_3
-    r = p[_R]
-    d = p[_D]
-    g1, h1 = _gh(cs, 0, p)
-    g2, h2 = _gh(cs, 1, p)
-    g3, h3 = _gh(cs, 2, p)
-    J = ((g1[0] / r, g1[1] / r, g1[2] / r), (g2[0] / r, g2[1] / r, g2[2] / r),
-         (g3[0] / r, g3[1] / r, g3[2] / r),
-         (h1[0] / d, h1[1] / d, h1[2] / d - 1.0), (h2[0] / d, h2[1] / d, h2[2] / d - 1.0),
-         (h3[0] / d, h3[1] / d, h3[2] / d - 1.0))
+    # J's rows as tuples (no array per row), the model's _jrows_i (TW-1): drive rows g_i / r,
+    # then steer rows h_i / d - e_3
+    g, h = _gh(cs, 0, p)
+    jd1, js1 = _jrows_i(g, h, p)
+    g, h = _gh(cs, 1, p)
+    jd2, js2 = _jrows_i(g, h, p)
+    g, h = _gh(cs, 2, p)
+    jd3, js3 = _jrows_i(g, h, p)
+    J = (jd1, jd2, jd3, js1, js2, js3)
     m00 = m01 = m02 = m11 = m12 = m22 = 0.0
     f0 = f1 = f2 = 0.0
     for k in range(6):
