@@ -25,7 +25,9 @@ info
     Gymnasium's vector format: each key of the single env's info as an array with leading axis
     N plus a bool mask ``_key``; nested dicts (``reward_terms``, and reset's ``params`` and
     ``task``) nest the same way. Step keys cover every sub-env; reset-only keys are masked to
-    the sub-envs that reset. The same arrays ``SyncVectorEnv`` of single envs would build.
+    the sub-envs that reset. The same values ``SyncVectorEnv`` of single envs would build;
+    each step's arrays are new (keep or change them freely), the float entries column views of
+    one copy of the core's buffers (not C-contiguous: ``np.ascontiguousarray`` if needed).
 actions
     ``(N, action_dim)``; entries outside [-1, 1] are clipped; a wrong shape or a non-finite
     entry (in a sub-env that steps) raises ``ValueError``.
