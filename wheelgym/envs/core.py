@@ -43,7 +43,7 @@ from wheelgym.envs.robots._body import (
 )
 from wheelgym.integrators import n_substeps
 from wheelgym.registration import DEFAULT_HORIZON
-from wheelgym.tasks._kernels import k_noise
+from wheelgym.tasks._kernels import k_add1, k_noise
 from wheelgym.tasks.tasks import TASKS, NavigateTask, Task, TrackTask
 
 __all__ = ["WheelCore", "DEFAULT_HORIZON"]
@@ -402,7 +402,7 @@ class WheelCore:
         if self._velocity:
             k_or_flags(self.F, self._csat, self._clipped)
         self.X, self.Xo = self.Xo, self.X
-        self.steps += 1
+        k_add1(self.steps)  # steps += 1 (NumPy takes 1.4 us on a short array, this 0.24 us)
         self.task.evaluate()
         if self.obs_noise > 0:
             self._noise(self.all_rows if active is None else np.flatnonzero(active))

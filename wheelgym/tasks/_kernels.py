@@ -186,6 +186,14 @@ def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
 
 
 @njit(cache=True)
+def k_add1(a):  # pragma: no cover - compiled
+    """``a += 1`` for an int array: 0.24 us a call where NumPy's in-place add takes 1.4 us
+    (the single track env advances its step counter every step)."""
+    for i in range(a.shape[0]):
+        a[i] += 1
+
+
+@njit(cache=True)
 def k_noise(rows, obs, noise, low, high):  # pragma: no cover - compiled
     """``obs[rows[r]] += noise[r]`` clipped to the bounds, in place."""
     for r in range(rows.shape[0]):

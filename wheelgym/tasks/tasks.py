@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from wheelgym.tasks._kernels import k_goal, k_goal_par, k_track
+from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_track
 from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle, evaluate_batch
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -371,7 +371,7 @@ class TrackTask(Task):
     def advance(self) -> None:
         """Move every row's reference index one control step on (before integrating), and the
         windows of the rows whose previews would leave theirs."""
-        self.kstep += 1
+        k_add1(self.kstep)
         self._slack -= 1
         if self._slack < 0:
             due = np.flatnonzero(np.minimum(self.kstep + self.ahead, self.L - 1)

@@ -53,6 +53,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 from wheelgym.envs.robots._body import F_OK, F_SAT, F_SUCC
+from wheelgym.tasks._kernels import k_add1
 
 __all__ = [
     "WheelVectorEnv",
@@ -274,7 +275,7 @@ class WheelVectorEnv(VectorEnv):
         _, reward, term, _ = c.step(a, active)
         reward = reward.copy()
         term = term.copy()
-        self._elapsed += 1
+        k_add1(self._elapsed)
         trunc = (self._elapsed >= self.max_episode_steps) if self.max_episode_steps is not None \
             else np.zeros(N, dtype=np.bool_)
         final: dict[str, Any] | None = None
