@@ -42,20 +42,7 @@ def _rate(step: Callable[[], int], min_time: float, repeats: int = 5) -> float:
     """Sub-env steps per second of ``step`` (which returns how many it did): the best of
     ``repeats`` rounds of at least ``min_time / repeats`` seconds (and 2 calls) each, after one
     warm-up call. The best round is the one least disturbed by other load on the machine."""
-    step()
-    best = 0.0
-    for _ in range(repeats):
-        n = 0
-        calls = 0
-        t0 = time.perf_counter()
-        while True:
-            n += step()
-            calls += 1
-            dt = time.perf_counter() - t0
-            if dt >= min_time / repeats and calls >= 2:
-                break
-        best = max(best, n / dt)
-    return best
+    return _rates({"step": step}, min_time, repeats)["step"]
 
 
 def _rates(steps: dict[str, Callable[[], int]], min_time: float,
