@@ -186,6 +186,27 @@ def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
 
 
 @njit(cache=True)
+def k_goal_reset(rows, U, d_lo, d_hi, two_pi, goal, prev, poses):  # pragma: no cover
+    """Goal task: start poses ``poses[r]`` and goals of ``rows[r]`` from the row's six uniforms
+    ``U[r]`` (start x, y in [-1, 1], start yaw, goal distance in [d_lo, d_hi], goal direction,
+    goal yaw; angles ``-pi + two_pi u``), with ``Generator.uniform``'s ``lo + (hi - lo) u``.
+    ``prev`` gets the start-to-goal distance. libm's cos/sin, as Python's ``math``."""
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        x = -1.0 + 2.0 * U[r, 0]
+        y = -1.0 + 2.0 * U[r, 1]
+        d = d_lo + (d_hi - d_lo) * U[r, 3]
+        a = -math.pi + two_pi * U[r, 4]
+        poses[r, 0] = x
+        poses[r, 1] = y
+        poses[r, 2] = -math.pi + two_pi * U[r, 2]
+        goal[i, 0] = x + d * math.cos(a)
+        goal[i, 1] = y + d * math.sin(a)
+        goal[i, 2] = -math.pi + two_pi * U[r, 5]
+        prev[i] = d
+
+
+@njit(cache=True)
 def k_add1(a):  # pragma: no cover - compiled
     """``a += 1`` for an int array: 0.24 us a call where NumPy's in-place add takes 1.4 us
     (the single track env advances its step counter every step)."""

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_track
+from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
 from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle, evaluate_batch
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -111,21 +111,14 @@ class GoalTask(Task):
         return names, np.array(high)
 
     def reset_rows(self, idx, rngs, options):
-        d_lo, d_hi = self.goal_dist
-        out = []  # per row: start x, y, yaw, goal x, y, yaw, distance (one array at the end)
-        for i in idx:
-            # six uniform draws in one call: start x, y in [-1, 1], start yaw, goal distance,
-            # goal direction, goal yaw; ``lo + (hi - lo) u`` is Generator.uniform's arithmetic
-            u0, u1, u2, u3, u4, u5 = rngs[i].random(6).tolist()
-            x, y = -1.0 + 2.0 * u0, -1.0 + 2.0 * u1
-            d = d_lo + (d_hi - d_lo) * u3
-            a = -math.pi + _TWO_PI * u4
-            out.append((x, y, -math.pi + _TWO_PI * u2, x + d * math.cos(a), y + d * math.sin(a),
-                        -math.pi + _TWO_PI * u5, d))
-        v = np.array(out).reshape(len(idx), 7)
-        self.goal[idx] = v[:, 3:6]
-        self.prev[idx] = v[:, 6]
-        poses = v[:, :3].copy()
+        # six uniform draws per row in one call each (k_goal_reset says what they become)
+        rows = np.asarray(idx, dtype=np.int64)
+        U = np.empty((rows.size, 6))
+        for n, i in enumerate(rows.tolist()):
+            rngs[i].random(out=U[n])
+        poses = np.empty((rows.size, 3))
+        k_goal_reset(rows, U, float(self.goal_dist[0]), float(self.goal_dist[1]), _TWO_PI,
+                     self.goal, self.prev, poses)
         return poses
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
