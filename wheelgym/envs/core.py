@@ -316,14 +316,9 @@ class WheelCore:
         idx = self.all_rows if rows is None else np.asarray(rows, dtype=np.int64)
         if idx.size == 0:
             return self.obs
-        if self.randomize:
+        if self.randomize:  # (without, every row keeps the base parameters it was built with)
             for i in idx:
                 self._draw_params(int(i), rngs[i])
-        else:  # the base parameters (P, LO, HI already hold them)
-            base = self.base_params
-            for i in idx.tolist():
-                self.params_rows[i] = base
-                self.drawn[i] = {}
         poses = self.task.reset_rows(idx, rngs, options)
         if self.randomize:  # the start state may depend on each row's drawn parameters
             for n, i in enumerate(idx):
