@@ -146,9 +146,8 @@ LANES = 16
 
 def _generated(args: str, lines: list[str]):
     """Compile the source of a small generated implementation (``fma`` in scope): loops over
-    a tuple unrolled,
-    so that the compiled code indexes it by constants (a tuple indexed by a loop variable
-    becomes a switch, which stops vectorisation)."""
+    a tuple unrolled, so that the compiled code indexes it by constants (a tuple indexed by a
+    loop variable becomes a switch, which stops vectorisation)."""
     scope: dict = {"fma": fma}
     body = "\n".join(f"    {ln}" for ln in lines) or "    pass"
     exec(f"def impl({args}):\n{body}\n", scope)

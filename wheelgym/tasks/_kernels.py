@@ -28,11 +28,20 @@ def _clip(a, lim):  # pragma: no cover - compiled
     return min(max(a, -lim), lim)
 
 @njit(cache=True, inline="always")
-def _wrap_sc(a):  # pragma: no cover - compiled
-    """``(wrap(a), sin a, cos a)``: ``a`` wrapped to (-pi, pi] and its sine and cosine (the
-    observation's ``cos``/``sin`` of the wrapped angle: one sincos, no libm calls)."""
-    s, c = sincos(a)
-    return math.atan2(s, c), s, c
+def _target_obs(b, o, tx, ty, tyaw, pclip, ob):  # pragma: no cover - compiled
+    """The target pose ``(tx, ty, tyaw)`` seen from the robot (pose at ``b[o + 2 ..]``) into
+    ``ob[0:4]``: position in the body frame (clipped to ``pclip``), cos and sin of the yaw
+    error (from one sincos of the error; the wrapped error by one atan2). Returns the
+    distance, the wrapped yaw error, and sin, cos of the robot's yaw."""
+    s, c = sincos(b[o + 4])
+    dx = tx - b[o + 2]
+    dy = ty - b[o + 3]
+    sy, cy = sincos(tyaw - b[o + 4])
+    ob[0] = _clip(c * dx + s * dy, pclip)
+    ob[1] = _clip(-s * dx + c * dy, pclip)
+    ob[2] = cy
+    ob[3] = sy
+    return _norm2(dx, dy), math.atan2(sy, cy), s, c
 
 
 @njit(cache=True, inline="always")
@@ -73,15 +82,7 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
                                                       cfg[5], cfg[6])
     b = B[i]
     ob = obs[i]
-    dx = goal[i, 0] - b[o + 2]
-    dy = goal[i, 1] - b[o + 3]
-    s, c = sincos(b[o + 4])
-    d = _norm2(dx, dy)
-    ey, sy, cy = _wrap_sc(goal[i, 2] - b[o + 4])
-    ob[0] = _clip(c * dx + s * dy, pclip)  # goal in B
-    ob[1] = _clip(-s * dx + c * dy, pclip)
-    ob[2] = cy
-    ob[3] = sy
+    d, ey, _, _ = _target_obs(b, o, goal[i, 0], goal[i, 1], goal[i, 2], pclip, ob)
     j = _common_tail(b, o, 4, nf, fclip, vclip, wclip, ob)
     for k in range(ranges.shape[1]):
         ob[j + k] = ranges[i, k]
@@ -145,15 +146,7 @@ def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
         k = min(kstep[i], L - 1) - kbase[i]
         px = b[o + 2]
         py = b[o + 3]
-        s, c = sincos(b[o + 4])
-        dx = ref[i, k, 0] - px
-        dy = ref[i, k, 1] - py
-        e = _norm2(dx, dy)
-        ey, sy, cy = _wrap_sc(ref[i, k, 2] - b[o + 4])
-        ob[0] = _clip(c * dx + s * dy, pclip)  # reference in B
-        ob[1] = _clip(-s * dx + c * dy, pclip)
-        ob[2] = cy
-        ob[3] = sy
+        e, ey, s, c = _target_obs(b, o, ref[i, k, 0], ref[i, k, 1], ref[i, k, 2], pclip, ob)
         ob[4] = _clip(ref[i, k, 3], vclip)  # reference twist in its own frame
         ob[5] = _clip(ref[i, k, 4], vclip)
         ob[6] = _clip(ref[i, k, 5], wclip)

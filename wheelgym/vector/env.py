@@ -370,9 +370,7 @@ class WheelVectorEnv(VectorEnv):
         name[idx] = c.task_name
         tinfo: dict[str, Any] = {"name": name}
         if hasattr(task, "goal"):
-            goal = np.zeros_like(task.goal)
-            goal[idx] = task.goal[idx]
-            tinfo["goal"] = goal
+            tinfo["goal"] = _masked(task.goal, reset)
         if hasattr(task, "kind"):
             ref = np.full(N, None, dtype=object)
             for i in idx:
