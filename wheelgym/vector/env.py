@@ -53,7 +53,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 from wheelgym.envs.robots._body import F_OK, F_SAT, F_SUCC
-from wheelgym.tasks._kernels import k_add1
+from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_take_rows, k_zero_rows
 
 __all__ = [
     "WheelVectorEnv",
@@ -169,14 +169,30 @@ class WheelVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, N)
 
         self._names = c.task.names
-        self._tidx = [int(k) for k in c.task.term_index]
-        self._nmotor = c.spec.n_motor
+        self._tidx = np.array([int(k) for k in c.task.term_index], dtype=np.int64)
+        nm = c.spec.n_motor
+        lay = c._lay
+        # where each info entry sits in the core's float block B
+        self._bslices = (("pose", lay["pose"]), ("twist", lay["twist"]),
+                         ("motor_torque", slice(0, nm)), ("joint_velocity", slice(c.m, c.m + nm)),
+                         ("tracking_error", lay["err"]), ("energy", lay["energy"]),
+                         ("internal_force", lay["xf"]))
+        self._has_goal = hasattr(c.task, "goal")
+        self._has_kind = hasattr(c.task, "kind")
         self._rngs: list[np.random.Generator | None] = [None] * N
         self._elapsed = np.zeros(N, dtype=np.int64)
+        self._max_steps = -1 if self.max_episode_steps is None else self.max_episode_steps
         self._started = np.zeros(N, dtype=np.bool_)
         self._ready = False  # every sub-env has been reset once
         self._autoreset = np.zeros(N, dtype=np.bool_)  # NEXT_STEP: rows to reset next step
+        self._n_autoreset = 0  # how many of them
         self._done = np.zeros(N, dtype=np.bool_)  # DISABLED: rows ended, not yet reset
+        # scratch of the step: actions with the autoreset rows zeroed, the done rows (swapped
+        # with _autoreset), the indices of the rows to reset
+        self._abuf = np.zeros((N, c.action_dim))
+        self._done_buf = np.zeros(N, dtype=np.bool_)
+        self._idx_buf = np.zeros(N, dtype=np.int64)
+        self._no_rows = np.zeros(0, dtype=np.int64)
         self._renderers: list[Any] | None = None
 
     # ------------------------------------------------------------------ seeding and reset
@@ -226,7 +242,8 @@ class WheelVectorEnv(VectorEnv):
                 self._rngs[i] = seeding.np_random()[0]
         self._reset_rows(rows, options or None)
         self._autoreset[rows] = False
-        info = self._info(mask, mask)
+        self._n_autoreset = int(np.count_nonzero(self._autoreset))
+        info = self._info(mask, rows)
         if not mask.all():
             info = self._mask_info(info, mask)
         return self.core.obs.copy(), info
@@ -234,9 +251,11 @@ class WheelVectorEnv(VectorEnv):
     def _reset_rows(self, rows: np.ndarray, options: dict | None = None) -> None:
         self.core.reset(rows, self._rngs, options)
         self._elapsed[rows] = 0
-        self._started[rows] = True
-        self._ready = np.count_nonzero(self._started) == self.num_envs
-        self._done[rows] = False
+        if not self._ready:
+            self._started[rows] = True
+            self._ready = np.count_nonzero(self._started) == self.num_envs
+        if self.autoreset_mode is AutoresetMode.DISABLED:
+            self._done[rows] = False
         if self._renderers is not None:
             for i, r in enumerate(self._renderers):
                 if self._started[i] and i in rows:
@@ -263,99 +282,100 @@ class WheelVectorEnv(VectorEnv):
             raise RuntimeError(
                 f"sub-envs {np.flatnonzero(self._done).tolist()} ended; with autoreset_mode "
                 "DISABLED reset them with reset(options={'reset_mask': mask}) before step()")
-        rr = self._autoreset if mode is AutoresetMode.NEXT_STEP else None
+        # NEXT_STEP: the rows that ended last step reset now instead of stepping (their
+        # actions are ignored, so they may be anything)
+        any_rr = mode is AutoresetMode.NEXT_STEP and self._n_autoreset > 0
+        rr = self._autoreset
         active = None
-        if rr is not None and np.count_nonzero(rr):
-            rr = rr.copy()
-            a = a.copy()
-            a[rr] = 0.0  # ignored: those sub-envs reset instead of stepping
-            active = ~rr
-        else:
-            rr = None
+        if any_rr:
+            k_zero_rows(a, rr, self._abuf)
+            a = self._abuf
+            if c.obs_noise > 0:
+                active = ~rr
         _, reward, term, _ = c.step(a, active)
-        reward = reward.copy()
-        term = term.copy()
-        k_add1(self._elapsed)
-        trunc = (self._elapsed >= self.max_episode_steps) if self.max_episode_steps is not None \
-            else np.zeros(N, dtype=np.bool_)
-        final: dict[str, Any] | None = None
-        if rr is not None:  # NEXT_STEP: these rows reset now instead of stepping
-            self._reset_rows(np.flatnonzero(rr))
-            reward[rr] = 0.0
-            term[rr] = False
-            trunc[rr] = False
-            info = self._info(np.ones(N, dtype=np.bool_), rr)
-        elif mode is AutoresetMode.SAME_STEP and (np.count_nonzero(term)
-                                                   or np.count_nonzero(trunc)):
-            done = term | trunc
-            step_info = self._info(np.ones(N, dtype=np.bool_), None)
+        # time limits, the autoreset rows' zeros, the done rows and the rows to reset now,
+        # in one pass (each step's arrays are new)
+        R = np.empty(N)
+        TT = np.empty((2, N), dtype=np.bool_)
+        done = self._done_buf
+        n_reset, n_done = k_step_ends(reward, term, self._elapsed, self._max_steps, rr, any_rr,
+                                      R, TT, done, self._idx_buf)
+        term = TT[0]
+        trunc = TT[1]
+        if any_rr:
+            rows = self._idx_buf[:n_reset].copy()
+            self._reset_rows(rows)
+            info = self._info(None, rows)
+        elif mode is AutoresetMode.SAME_STEP and n_reset:
+            rows = self._idx_buf[:n_reset].copy()
+            ended = done.copy()
+            step_info = self._info(None, None)
             final_obs = np.full(N, None, dtype=object)
-            for i in np.flatnonzero(done):
+            for i in rows:
                 final_obs[i] = c.obs[i].copy()
-            final = {"final_obs": final_obs, "_final_obs": done.copy(),
-                     "final_info": self._mask_info(step_info, done), "_final_info": done.copy()}
-            self._reset_rows(np.flatnonzero(done))
-            info = self._info(np.ones(N, dtype=np.bool_), done)
-        else:
-            info = self._info(np.ones(N, dtype=np.bool_), None)
-        if final is not None:
+            final = {"final_obs": final_obs, "_final_obs": ended,
+                     "final_info": self._mask_info(step_info, ended),
+                     "_final_info": ended.copy()}
+            self._reset_rows(rows)
+            info = self._info(None, rows)
             info.update(final)
+        else:
+            info = self._info(None, None)
         if mode is AutoresetMode.NEXT_STEP:
-            np.logical_or(term, trunc, out=self._autoreset)
+            self._autoreset, self._done_buf = done, rr
+            self._n_autoreset = n_done
         elif mode is AutoresetMode.DISABLED:
-            np.logical_or(term, trunc, out=self._done)
-        return c.obs.copy(), reward, term, trunc, info
+            self._done[:] = done
+        return c.obs.copy(), R, term, trunc, info
 
     # ------------------------------------------------------------------ info
-    def _info(self, rows: np.ndarray, reset: np.ndarray | None) -> dict[str, Any]:
-        """The single env's info keys for every row (values from the core's buffers, which
-        hold the reset values for rows just reset); ``reset`` rows get zero reward terms and
-        the reset-only keys ``params`` and ``task``.
+    def _info(self, rows: np.ndarray | None, reset: np.ndarray | None) -> dict[str, Any]:
+        """The single env's info keys for the sub-envs in the bool mask ``rows`` (all when
+        None), values from the core's buffers (which hold the reset values for rows just
+        reset); the sub-envs with indices ``reset`` get zero reward terms and the reset-only
+        keys ``params`` and ``task``.
 
-        Few allocations per step: the float entries are column views of one copy of the
-        core's float block, the flags of one copy of its flag block, the masks rows of one
-        array, the reward terms rows of one copy. Each step's arrays are new (the caller may
-        keep or change them) and no two entries overlap."""
+        Few allocations per step: one compiled copy of the core's float block (the float
+        entries are column views of it), of the flags and of the reward terms; the masks are
+        rows of one array. Each step's arrays are new (the caller may keep or change them) and
+        no two entries overlap."""
         c = self.core
-        nm = self._nmotor
-        nt = len(self._tidx)
-        lay = c._lay
-        m = c.m
-        B = c.B.copy()
-        F = c.F.copy()
-        masks = np.empty((11 + nt, self.num_envs), dtype=np.bool_)
-        masks[:] = rows
-        ok = F[:, F_OK]
-        np.logical_not(ok, out=ok)
-        info: dict[str, Any] = {
-            "pose": B[:, lay["pose"]], "_pose": masks[0],
-            "twist": B[:, lay["twist"]], "_twist": masks[1],
-            "motor_torque": B[:, :nm], "_motor_torque": masks[2],
-            "joint_velocity": B[:, m:m + nm], "_joint_velocity": masks[3],
-            "tracking_error": B[:, lay["err"]], "_tracking_error": masks[4],
-            "energy": B[:, lay["energy"]], "_energy": masks[5],
-            "internal_force": B[:, lay["xf"]], "_internal_force": masks[6],
-            "saturated": F[:, F_SAT], "_saturated": masks[7],
-            "is_success": F[:, F_SUCC], "_is_success": masks[8],
-            "numerical_failure": ok, "_numerical_failure": masks[9],
-        }
-        tv = c.terms.T[self._tidx]  # (n_terms, N), a copy
-        if reset is not None:
-            tv[:, reset] = 0.0
+        N = self.num_envs
+        nt = self._tidx.size
+        Bo = np.empty_like(c.B)
+        Fo = np.empty((3, N), dtype=np.bool_)
+        tv = np.empty((nt, N))
+        k_info_copy(c.B, c.F, c.terms, self._tidx, self._no_rows if reset is None else reset,
+                    F_SAT, F_SUCC, F_OK, Bo, Fo, tv)
+        if rows is None:
+            masks = np.ones((11 + nt, N), dtype=np.bool_)
+        else:
+            masks = np.empty((11 + nt, N), dtype=np.bool_)
+            masks[:] = rows
+        info: dict[str, Any] = {}
+        for j, (k, sl) in enumerate(self._bslices):
+            info[k] = Bo[:, sl]
+            info["_" + k] = masks[j]
+        info["saturated"] = Fo[0]
+        info["_saturated"] = masks[7]
+        info["is_success"] = Fo[1]
+        info["_is_success"] = masks[8]
+        info["numerical_failure"] = Fo[2]
+        info["_numerical_failure"] = masks[9]
         terms: dict[str, Any] = {}
         for j, n in enumerate(self._names):
             terms[n] = tv[j]
             terms["_" + n] = masks[11 + j]
         info["reward_terms"] = terms
         info["_reward_terms"] = masks[10]
-        if reset is not None and np.count_nonzero(reset):
+        if reset is not None and reset.size:
             info.update(self._reset_info(reset))
         return info
 
-    def _reset_info(self, reset: np.ndarray) -> dict[str, Any]:
+    def _reset_info(self, idx: np.ndarray) -> dict[str, Any]:
+        """``params`` and ``task`` of the sub-envs with indices ``idx`` (just reset)."""
         c = self.core
         N = self.num_envs
-        idx = np.flatnonzero(reset)
         params: dict[str, Any] = {}
         if c.randomize:
             for i in idx:
@@ -366,18 +386,20 @@ class WheelVectorEnv(VectorEnv):
                     params[k][i] = v
                     params["_" + k][i] = True
         task = c.task
-        name = np.full(N, None, dtype=object)
+        name = np.empty(N, dtype=object)  # None-filled
         name[idx] = c.task_name
         tinfo: dict[str, Any] = {"name": name}
-        if hasattr(task, "goal"):
-            tinfo["goal"] = _masked(task.goal, reset)
-        if hasattr(task, "kind"):
-            ref = np.full(N, None, dtype=object)
+        if self._has_goal:
+            goal = np.zeros_like(task.goal)
+            k_take_rows(task.goal, idx, goal)
+            tinfo["goal"] = goal
+        if self._has_kind:
+            ref = np.empty(N, dtype=object)
             for i in idx:
                 ref[i] = task.kind[i]
             tinfo["reference"] = ref
-        masks = np.empty((len(tinfo) + 2, N), dtype=np.bool_)
-        masks[:] = reset
+        masks = np.zeros((len(tinfo) + 2, N), dtype=np.bool_)
+        masks[:, idx] = True
         for j, k in enumerate(list(tinfo)):
             tinfo["_" + k] = masks[2 + j]
         return {"params": params, "_params": masks[0], "task": tinfo, "_task": masks[1]}
