@@ -597,7 +597,7 @@ class ThreeWheel(Model):
 
     Cost (2-core machine, one core): about 0.17 us per derivative, 0.68 us per RK4 substep on
     one state (1.7 us for ``step`` with one substep); a batch steps in vectorised blocks of
-    ``integrators.LANES`` robots at about 0.2 us per robot-substep (``_k_block``, 3.3x).
+    ``integrators.LANES`` robots at about 0.14 us per robot-substep (``_k_block``, 4.2x).
     """
 
     state_names = ("x", "y", "yaw", "vx", "vy", "wz", "psi_1", "psi_2", "psi_3",
