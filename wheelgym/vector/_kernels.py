@@ -32,10 +32,8 @@ def k_step_ends(reward, term, elapsed, max_steps, rr, any_rr, R, TT, done,
     autoreset rows ``rr`` (when ``any_rr``) get 0, False, False. ``done = term | trunc``.
 
     Writes the rows to reset into ``idx``: the autoreset rows when ``any_rr`` (next-step
-    autoreset), else the done rows (same-step autoreset). Returns how many, and how many rows
-    are done."""
+    autoreset), else the done rows (same-step autoreset). Returns how many."""
     n = 0
-    nd = 0
     for i in range(reward.shape[0]):
         e = elapsed[i] + 1
         elapsed[i] = e
@@ -53,12 +51,10 @@ def k_step_ends(reward, term, elapsed, max_steps, rr, any_rr, R, TT, done,
         TT[1, i] = tr
         d = t or tr
         done[i] = d
-        if d:
-            nd += 1
-            if not any_rr:
-                idx[n] = i
-                n += 1
-    return n, nd
+        if d and not any_rr:
+            idx[n] = i
+            n += 1
+    return n
 
 
 @njit(cache=True)
@@ -77,12 +73,3 @@ def k_info_copy(B, F, terms, tidx, rows, f_sat, f_succ, f_ok, Bo, Fo, To):  # pr
     for i in rows:
         for j in range(tidx.shape[0]):
             To[j, i] = 0.0
-
-
-@njit(cache=True)
-def k_take_rows(a, rows, out):  # pragma: no cover - compiled
-    """``out[i] = a[i]`` for the row indices ``rows`` (``out`` zeroed elsewhere by its
-    caller): a reset-only info entry masked to the rows that reset."""
-    for i in rows:
-        for j in range(a.shape[1]):
-            out[i, j] = a[i, j]

@@ -53,7 +53,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 from wheelgym.envs.robots._body import F_OK, F_SAT, F_SUCC
-from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_take_rows, k_zero_rows
+from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
     "WheelVectorEnv",
@@ -81,7 +81,8 @@ def _autoreset_mode(value: Any) -> AutoresetMode:
 
 
 def _masked(arr: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """``arr`` with rows outside ``mask`` zeroed (Gymnasium fills absent entries with 0)."""
+    """``arr`` with rows outside ``mask`` (a bool mask or row indices) zeroed (Gymnasium fills
+    absent entries with 0)."""
     out = np.zeros_like(arr)
     out[mask] = arr[mask]
     return out
@@ -185,7 +186,6 @@ class WheelVectorEnv(VectorEnv):
         self._started = np.zeros(N, dtype=np.bool_)
         self._ready = False  # every sub-env has been reset once
         self._autoreset = np.zeros(N, dtype=np.bool_)  # NEXT_STEP: rows to reset next step
-        self._n_autoreset = 0  # how many of them
         self._done = np.zeros(N, dtype=np.bool_)  # DISABLED: rows ended, not yet reset
         # scratch of the step: actions with the autoreset rows zeroed, the done rows (swapped
         # with _autoreset), the indices of the rows to reset
@@ -242,7 +242,6 @@ class WheelVectorEnv(VectorEnv):
                 self._rngs[i] = seeding.np_random()[0]
         self._reset_rows(rows, options or None)
         self._autoreset[rows] = False
-        self._n_autoreset = int(np.count_nonzero(self._autoreset))
         info = self._info(mask, rows)
         if not mask.all():
             info = self._mask_info(info, mask)
@@ -284,7 +283,7 @@ class WheelVectorEnv(VectorEnv):
                 "DISABLED reset them with reset(options={'reset_mask': mask}) before step()")
         # NEXT_STEP: the rows that ended last step reset now instead of stepping (their
         # actions are ignored, so they may be anything)
-        any_rr = mode is AutoresetMode.NEXT_STEP and self._n_autoreset > 0
+        any_rr = mode is AutoresetMode.NEXT_STEP and np.count_nonzero(self._autoreset) > 0
         rr = self._autoreset
         active = None
         if any_rr:
@@ -298,8 +297,8 @@ class WheelVectorEnv(VectorEnv):
         R = np.empty(N)
         TT = np.empty((2, N), dtype=np.bool_)
         done = self._done_buf
-        n_reset, n_done = k_step_ends(reward, term, self._elapsed, self._max_steps, rr, any_rr,
-                                      R, TT, done, self._idx_buf)
+        n_reset = k_step_ends(reward, term, self._elapsed, self._max_steps, rr, any_rr, R, TT,
+                              done, self._idx_buf)
         term = TT[0]
         trunc = TT[1]
         if any_rr:
@@ -323,7 +322,6 @@ class WheelVectorEnv(VectorEnv):
             info = self._info(None, None)
         if mode is AutoresetMode.NEXT_STEP:
             self._autoreset, self._done_buf = done, rr
-            self._n_autoreset = n_done
         elif mode is AutoresetMode.DISABLED:
             self._done[:] = done
         return c.obs.copy(), R, term, trunc, info
@@ -390,9 +388,7 @@ class WheelVectorEnv(VectorEnv):
         name[idx] = c.task_name
         tinfo: dict[str, Any] = {"name": name}
         if self._has_goal:
-            goal = np.zeros_like(task.goal)
-            k_take_rows(task.goal, idx, goal)
-            tinfo["goal"] = goal
+            tinfo["goal"] = _masked(task.goal, idx)
         if self._has_kind:
             ref = np.empty(N, dtype=object)
             for i in idx:
