@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	# The CPU build of torch first: an unpinned torch would pull a multi-GB CUDA build.
-	$(PIP) install --quiet "torch==2.13.0" || $(PIP) install --quiet "torch==2.13.0" --index-url https://download.pytorch.org/whl/cpu
+	$(PIP) install --quiet "torch==2.13.0"
 	$(PIP) install --quiet -e ".[train,dev]"
 	touch $(STAMP)
 

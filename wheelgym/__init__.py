@@ -1,6 +1,36 @@
-"""wheelgym: Gymnasium environments for wheeled mobile robots with real physics."""
+"""wheelgym: Gymnasium environments for wheeled mobile robots with real physics.
+
+``import wheelgym`` registers the ``wheelgym/<Robot>-v0`` ids and loads nothing heavy: the
+subpackages (``wheelgym.models``, ``wheelgym.control``, ``wheelgym.envs``, ...) are imported on
+first attribute access, so ``wheelgym.control.baseline(env)`` works after a bare
+``import wheelgym`` without loading numba or the models at start-up.
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
 
 __version__ = "0.1.0"
+
+#: Subpackages and modules reachable as attributes of ``wheelgym`` (imported on first access).
+SUBMODULES = (
+    "agents",
+    "cli",
+    "control",
+    "envs",
+    "integrators",
+    "kinematics",
+    "models",
+    "registration",
+    "render",
+    "tasks",
+    "validate",
+    "vector",
+    "world",
+)
+
+__all__ = ["__version__", "register_envs", *SUBMODULES]
 
 
 def register_envs() -> None:
@@ -8,6 +38,19 @@ def register_envs() -> None:
     from wheelgym.registration import register_envs as _register
 
     _register()
+
+
+def __getattr__(name: str) -> ModuleType:
+    """Import ``wheelgym.<name>`` on first access (PEP 562)."""
+    if name in SUBMODULES:
+        module = importlib.import_module(f"{__name__}.{name}")
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *SUBMODULES})
 
 
 register_envs()

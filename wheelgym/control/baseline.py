@@ -35,11 +35,19 @@ from typing import Any
 
 import numpy as np
 
+# the compiled element-wise functions, not NumPy's: a batch must equal each of its robots bit
+# for bit on any CPU (NumPy's own loops depend on the CPU and the array's layout)
+from wheelgym.models import elementwise as ew
+
 __all__ = ["baseline", "BaselinePolicy"]
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
-    return np.arctan2(np.sin(a), np.cos(a))
+    return ew.arctan2(ew.sin(a), ew.cos(a))
+
+
+def _sq(a: np.ndarray) -> np.ndarray:
+    return a * a
 
 
 def _find_core(env: Any):
@@ -129,15 +137,15 @@ class BaselinePolicy:
         navigate = c.task_name == "navigate"
         x_off = 0.0 if self.holonomic else self.x_icr
         # tracked point P = position + x_off e(yaw) and the goal's
-        px = pose[:, 0] + x_off * np.cos(pose[:, 2])
-        py = pose[:, 1] + x_off * np.sin(pose[:, 2])
-        gx = goal[:, 0] + x_off * np.cos(goal[:, 2])
-        gy = goal[:, 1] + x_off * np.sin(goal[:, 2])
+        px = pose[:, 0] + x_off * ew.cos(pose[:, 2])
+        py = pose[:, 1] + x_off * ew.sin(pose[:, 2])
+        gx = goal[:, 0] + x_off * ew.cos(goal[:, 2])
+        gy = goal[:, 1] + x_off * ew.sin(goal[:, 2])
         dx, dy = gx - px, gy - py
-        cy, sy = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        cy, sy = ew.cos(pose[:, 2]), ew.sin(pose[:, 2])
         ex = cy * dx + sy * dy  # goal in B
         ey = -sy * dx + cy * dy
-        dist = np.hypot(ex, ey)
+        dist = ew.hypot(ex, ey)
         eyaw = _wrap(goal[:, 2] - pose[:, 2])
         if navigate:  # potential field on the range ring (body-frame vector)
             ranges = c.task.ranges
@@ -148,8 +156,8 @@ class BaselinePolicy:
                            (d_safe - c.spec.radius), 0.0, None) * (ranges < d_safe)
             att = np.stack([ex, ey], axis=1) / np.maximum(dist, 1e-9)[:, None]
             att *= np.minimum(dist, 1.0)[:, None]
-            vx_b = att[:, 0] - 0.25 * np.sum(push * np.cos(ang), axis=1)
-            vy_b = att[:, 1] - 0.25 * np.sum(push * np.sin(ang), axis=1)
+            vx_b = att[:, 0] - 0.25 * np.sum(push * ew.cos(ang), axis=1)
+            vy_b = att[:, 1] - 0.25 * np.sum(push * ew.sin(ang), axis=1)
             ex, ey = vx_b, vy_b
             eyaw = np.zeros_like(eyaw)
         N = c.num
@@ -161,18 +169,18 @@ class BaselinePolicy:
             cmd[:, :2] = v
             cmd[:, 2] = np.clip(2.0 * eyaw, -self.w_cap, self.w_cap)
             if navigate:  # face the direction of travel, so the front rays look ahead
-                cmd[:, 2] = np.clip(2.0 * np.arctan2(ey, ex), -self.w_cap, self.w_cap)
+                cmd[:, 2] = np.clip(2.0 * ew.arctan2(ey, ex), -self.w_cap, self.w_cap)
             return cmd
-        alpha = np.arctan2(ey, ex)
+        alpha = ew.arctan2(ey, ex)
         back = (np.abs(alpha) > 0.5 * math.pi) & (not navigate) & (dist < 1.5)
         alpha_d = np.where(back, _wrap(alpha - math.pi), alpha)
         sgn = np.where(back, -1.0, 1.0)
         near = (dist < 0.05) & (not navigate) & self.turns_in_place
-        v = sgn * np.clip(1.2 * dist * np.cos(alpha_d) ** 2, 0.0, self.v_cap)
+        v = sgn * np.clip(1.2 * dist * _sq(ew.cos(alpha_d)), 0.0, self.v_cap)
         v = np.where(np.abs(alpha_d) > 0.6, 0.0 if self.turns_in_place else v, v)
         w = np.clip(2.5 * alpha_d, -self.w_cap, self.w_cap)
         if navigate:
-            v = np.clip(np.hypot(ex, ey), 0.0, self.v_cap) * np.clip(np.cos(alpha_d), 0.0, None)
+            v = np.clip(ew.hypot(ex, ey), 0.0, self.v_cap) * np.clip(ew.cos(alpha_d), 0.0, None)
         cmd[:, 0] = np.where(near, 0.0, v)
         cmd[:, 2] = np.where(near, np.clip(2.5 * eyaw, -self.w_cap, self.w_cap), w)
         return cmd
@@ -186,31 +194,31 @@ class BaselinePolicy:
         x_off = 0.0 if self.holonomic else self.x_icr
         if not self.holonomic:
             pose = self._icr_reference(pose)
-        px = c.pose[:, 0] + x_off * np.cos(c.pose[:, 2])
-        py = c.pose[:, 1] + x_off * np.sin(c.pose[:, 2])
+        px = c.pose[:, 0] + x_off * ew.cos(c.pose[:, 2])
+        py = c.pose[:, 1] + x_off * ew.sin(c.pose[:, 2])
         dx, dy = pose[:, 0] - px, pose[:, 1] - py
-        cy, sy = np.cos(c.pose[:, 2]), np.sin(c.pose[:, 2])
+        cy, sy = ew.cos(c.pose[:, 2]), ew.sin(c.pose[:, 2])
         ex = cy * dx + sy * dy
         ey = -sy * dx + cy * dy
         eyaw = _wrap(pose[:, 2] - c.pose[:, 2])
         cmd = np.zeros((c.num, 3))
         if self.holonomic:
-            ce, se = np.cos(eyaw), np.sin(eyaw)
+            ce, se = ew.cos(eyaw), ew.sin(eyaw)
             cmd[:, 0] = ce * tw[:, 0] - se * tw[:, 1] + 4.0 * ex
             cmd[:, 1] = se * tw[:, 0] + ce * tw[:, 1] + 4.0 * ey
             cmd[:, 2] = tw[:, 2] + 4.0 * eyaw
             return cmd
         vr, wr = tw[:, 0], tw[:, 2]  # Kanayama's law
-        cmd[:, 0] = vr * np.cos(eyaw) + 3.0 * ex
-        cmd[:, 2] = wr + vr * (25.0 * ey + 6.0 * np.sin(eyaw))
+        cmd[:, 0] = vr * ew.cos(eyaw) + 3.0 * ex
+        cmd[:, 2] = wr + vr * (25.0 * ey + 6.0 * ew.sin(eyaw))
         return cmd
 
     def _icr_reference(self, pose: np.ndarray) -> np.ndarray:
         """Reference of the tracked point: the CoM reference moved by ``x_icr`` along its
         heading, so that the CoM lands on the reference when the point does (SS-1)."""
         out = pose.copy()
-        out[:, 0] += self.x_icr * np.cos(pose[:, 2])
-        out[:, 1] += self.x_icr * np.sin(pose[:, 2])
+        out[:, 0] += self.x_icr * ew.cos(pose[:, 2])
+        out[:, 1] += self.x_icr * ew.sin(pose[:, 2])
         return out
 
     def _to_action(self, cmd: np.ndarray) -> np.ndarray:
@@ -245,10 +253,10 @@ class BaselinePolicy:
             u = np.stack([v / p.wheel_radius, w], axis=1)
         elif mode == "VehicleSpeedSteeringAngle":
             vv = np.where(np.abs(v) < 0.05, 0.05, v)
-            u = np.stack([vv, np.arctan(w * p.wheelbase / vv)], axis=1)
+            u = np.stack([vv, ew.arctan(w * p.wheelbase / vv)], axis=1)
         elif mode == "VehicleSpeedSteeringRate":
             vv = np.where(np.abs(v) < 0.05, 0.05, v)
-            psi_d = np.arctan(w * p.wheelbase / vv)
+            psi_d = ew.arctan(w * p.wheelbase / vv)
             u = np.stack([vv, 4.0 * (psi_d - c.X[:, 3])], axis=1)
         else:  # VehicleSpeedHeadingRate
             u = np.stack([v, w], axis=1)

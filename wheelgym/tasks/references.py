@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from wheelgym.models import elementwise as ew
+
 __all__ = [
     "Reference",
     "QuinticCircle",
@@ -77,12 +79,16 @@ def quintic_scaling(t: np.ndarray, duration: float, total: float = 1.0):
     """
     # an array of durations broadcasts against t (evaluate_batch)
     T = duration if isinstance(duration, np.ndarray) else float(duration)
+    # integer powers as products: NumPy's power of an array runs SVML on AVX-512 machines
+    # and libm elsewhere (a different last bit); a product is exact IEEE arithmetic everywhere
     tau = np.clip(t / T, 0.0, 1.0)
     inside = (t > 0.0) & (t < T)
-    s = total * tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-    sd = total / T * 30.0 * tau**2 * (1.0 - tau) ** 2 * inside
-    sdd = total / T**2 * 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * tau**2) * inside
-    sddd = total / T**3 * 60.0 * (1.0 - 6.0 * tau + 6.0 * tau**2) * inside
+    tau2 = tau * tau
+    u = 1.0 - tau
+    s = total * (tau2 * tau) * (10.0 - 15.0 * tau + 6.0 * tau2)
+    sd = total / T * 30.0 * tau2 * (u * u) * inside
+    sdd = total / (T * T) * 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * tau2) * inside
+    sddd = total / (T * T * T) * 60.0 * (1.0 - 6.0 * tau + 6.0 * tau2) * inside
     return s, sd, sdd, sddd
 
 
@@ -114,7 +120,7 @@ class Reference:
 
     def _tangent_yaw(self, s: np.ndarray, p_s: np.ndarray) -> np.ndarray:
         """Unwrapped tangent heading; subclasses with a closed form override this."""
-        return np.arctan2(p_s[..., 1], p_s[..., 0])
+        return ew.arctan2(p_s[..., 1], p_s[..., 0])
 
     def _yaw_law(self, t, s, sd, sdd):
         """Prescribed ``(yaw, wz, wzdot)`` for a non-tangent heading; constant by default."""
@@ -135,15 +141,16 @@ class Reference:
         pose[..., :2] = p
         if self._heading is None:
             # heading tangent to the path: u = (v, 0, kappa v)
-            sigma = np.hypot(ps[..., 0], ps[..., 1])  # |p_s| > 0 on every curve here
+            sigma = ew.hypot(ps[..., 0], ps[..., 1])  # |p_s| > 0 on every curve here
             cross1 = ps[..., 0] * pss[..., 1] - ps[..., 1] * pss[..., 0]
             cross2 = ps[..., 0] * psss[..., 1] - ps[..., 1] * psss[..., 0]
             dot1 = ps[..., 0] * pss[..., 0] + ps[..., 1] * pss[..., 1]
             sigma_s = dot1 / sigma
-            kappa = cross1 / sigma**3
-            kappa_s = cross2 / sigma**3 - 3.0 * cross1 * sigma_s / sigma**4
+            sigma3 = sigma * sigma * sigma
+            kappa = cross1 / sigma3
+            kappa_s = cross2 / sigma3 - 3.0 * cross1 * sigma_s / (sigma3 * sigma)
             v = sigma * sd
-            vdot = sigma_s * sd**2 + sigma * sdd
+            vdot = sigma_s * (sd * sd) + sigma * sdd
             pose[..., 2] = self._tangent_yaw(s, ps)
             twist[..., 0] = v
             twist[..., 1] = 0.0
@@ -155,9 +162,9 @@ class Reference:
             # prescribed heading (holonomic): u_lin = R^T pdot,
             # udot_lin = R^T pddot - wz S R^T pdot with S = [[0, -1], [1, 0]]
             yaw, wz, wzd = self._yaw_law(t, s, sd, sdd)
-            c, sn = np.cos(yaw), np.sin(yaw)
+            c, sn = ew.cos(yaw), ew.sin(yaw)
             pd = ps * sd[..., None]
-            pdd = pss * (sd**2)[..., None] + ps * sdd[..., None]
+            pdd = pss * (sd * sd)[..., None] + ps * sdd[..., None]
             pose[..., 2] = yaw
             twist[..., 0] = c * pd[..., 0] + sn * pd[..., 1]
             twist[..., 1] = -sn * pd[..., 0] + c * pd[..., 1]
@@ -192,7 +199,7 @@ class _CircleCurve(Reference):
     def _curve(self, s):
         R, k = self.radius, self._sgn
         a = self.phase + k * s  # tangent heading
-        ca, sa = np.cos(a), np.sin(a)
+        ca, sa = ew.cos(a), ew.sin(a)
         # p = c + k R (sin a, -cos a): dp/ds = R (cos a, sin a) for both directions
         p = np.stack([self.center[0] + k * R * sa, self.center[1] - k * R * ca], axis=-1)
         ps = np.stack([R * ca, R * sa], axis=-1)
@@ -305,12 +312,13 @@ class FigureEight(Reference):
 
     def _curve(self, s):
         A, w = self.size, self._w
-        s1, c1 = np.sin(w * s), np.cos(w * s)
-        s2, c2 = np.sin(2 * w * s), np.cos(2 * w * s)
+        s1, c1 = ew.sin(w * s), ew.cos(w * s)
+        s2, c2 = ew.sin(2 * w * s), ew.cos(2 * w * s)
+        w2 = w * w  # a column in evaluate_batch: products, not NumPy's power (see above)
         p = np.stack([self.center[0] + A * s1, self.center[1] + 0.5 * A * s2], axis=-1)
         ps = np.stack([A * w * c1, A * w * c2], axis=-1)
-        pss = np.stack([-A * w**2 * s1, -2.0 * A * w**2 * s2], axis=-1)
-        psss = np.stack([-A * w**3 * c1, -4.0 * A * w**3 * c2], axis=-1)
+        pss = np.stack([-A * w2 * s1, -2.0 * A * w2 * s2], axis=-1)
+        psss = np.stack([-A * (w2 * w) * c1, -4.0 * A * (w2 * w) * c2], axis=-1)
         return p, ps, pss, psss
 
     def _tangent_yaw(self, s, p_s):
@@ -318,8 +326,8 @@ class FigureEight(Reference):
         # x > 0 and atan2 is continuous; in the x < 0 lobe (w s in (pi/2, 3pi/2)) it passes
         # angle pi, so measure it from -x there: atan2(-y, -x) + pi - 2 pi, which joins
         # continuously at the lobe ends (angle -pi/2).
-        raw = np.arctan2(p_s[..., 1], p_s[..., 0])
-        alt = np.arctan2(-p_s[..., 1], -p_s[..., 0]) - np.pi
+        raw = ew.arctan2(p_s[..., 1], p_s[..., 0])
+        alt = ew.arctan2(-p_s[..., 1], -p_s[..., 0]) - np.pi
         phase = np.mod(self._w * s, 2.0 * np.pi)
         inside = (phase > 0.5 * np.pi) & (phase < 1.5 * np.pi)
         return np.where(inside, alt, raw)
@@ -407,10 +415,11 @@ class PointToPoint(Reference):
             return p0 + s[..., None] * d, d + z, z, z
         m0, m1 = self._m0, self._m1
         s_ = s[..., None]
-        h00, h10, h01, h11 = 2 * s_**3 - 3 * s_**2 + 1, s_**3 - 2 * s_**2 + s_, \
-            -2 * s_**3 + 3 * s_**2, s_**3 - s_**2
-        d00, d10, d01, d11 = 6 * s_**2 - 6 * s_, 3 * s_**2 - 4 * s_ + 1, \
-            -6 * s_**2 + 6 * s_, 3 * s_**2 - 2 * s_
+        q2 = s_ * s_
+        q3 = q2 * s_
+        h00, h10, h01, h11 = 2 * q3 - 3 * q2 + 1, q3 - 2 * q2 + s_, -2 * q3 + 3 * q2, q3 - q2
+        d00, d10, d01, d11 = 6 * q2 - 6 * s_, 3 * q2 - 4 * s_ + 1, -6 * q2 + 6 * s_, \
+            3 * q2 - 2 * s_
         e00, e10, e01, e11 = 12 * s_ - 6, 6 * s_ - 4, -12 * s_ + 6, 6 * s_ - 2
         p = h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1
         ps = d00 * p0 + d10 * m0 + d01 * p1 + d11 * m1
@@ -420,7 +429,7 @@ class PointToPoint(Reference):
 
     def _tangent_yaw(self, s, p_s):
         # unwrap relative to the start heading
-        raw = np.arctan2(p_s[..., 1], p_s[..., 0])
+        raw = ew.arctan2(p_s[..., 1], p_s[..., 0])
         return self.start[2] + (raw - self.start[2] + np.pi) % (2 * np.pi) - np.pi
 
     def _yaw_law(self, t, s, sd, sdd):

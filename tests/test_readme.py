@@ -1,0 +1,44 @@
+"""The README's Python blocks run verbatim in a fresh interpreter (what a new user pastes)."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+BLOCKS = re.findall(r"^```python\n(.*?)^```", README.read_text(encoding="utf-8"),
+                    flags=re.MULTILINE | re.DOTALL)
+
+
+def test_readme_has_python_blocks() -> None:
+    assert len(BLOCKS) >= 2
+
+
+@pytest.mark.parametrize("k", range(len(BLOCKS)))
+def test_readme_block_runs_verbatim(k: int, tmp_path: Path) -> None:
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "MPLBACKEND": "Agg"}
+    r = subprocess.run([sys.executable, "-c", BLOCKS[k]], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, f"README block {k} failed:\n{BLOCKS[k]}\n{r.stderr[-3000:]}"
+
+
+def test_subpackages_are_attributes_in_a_fresh_interpreter() -> None:
+    code = ("import wheelgym, sys\n"
+            "assert 'wheelgym.control' not in sys.modules\n"  # lazy: nothing heavy at import
+            "for name in wheelgym.SUBMODULES:\n"
+            "    assert getattr(wheelgym, name).__name__ == 'wheelgym.' + name\n"
+            "assert 'control' in dir(wheelgym)\n"
+            "try:\n"
+            "    wheelgym.no_such_thing\n"
+            "except AttributeError as e:\n"
+            "    assert 'no_such_thing' in str(e)\n"
+            "else:\n"
+            "    raise SystemExit('no AttributeError')\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
