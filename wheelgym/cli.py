@@ -13,14 +13,21 @@ command                                 what it does
 ``wheelgym validate``                   the physics validation report
 ======================================= ==================================================
 
-Training commands need the ``train`` extra. Errors in arguments or configs print one line and
-exit with status 2 (set ``WHEELGYM_DEBUG=1`` for the traceback); an interrupted training run
-(Ctrl-C) saves and exits with status 130.
+Training commands need the ``train`` extra.
+
+Exit status: 0 on success; 2 for an error in the arguments, a config or a run folder, and for
+files that cannot be read or written (one line on stderr: ``wheelgym <command>: error: ...``);
+1 for any other failure (also one line, naming the exception; a training run that raised is
+recorded as ``failed`` in its run.json); 130 after Ctrl-C (SIGINT): a training run stops at the
+next step, saves its model and statistics, records ``interrupted`` and exits with 130, also
+with a ``subproc`` vector env. ``--debug`` (before or after the command) or ``WHEELGYM_DEBUG=1``
+shows the traceback instead.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -30,31 +37,58 @@ from pathlib import Path
 __all__ = ["main"]
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(float(text)) if "e" in text.lower() else int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return value
+#: Largest accepted integer argument (seeds need < 2**32; step counts beyond this are typos).
+MAX_INT = 2**32 - 1
 
 
-def _nonneg_int(text: str) -> int:
+def _int_arg(text: str, lo: int) -> int:
+    """An integer argument in ``[lo, MAX_INT]``; ``2e5`` style accepted when it is whole."""
+    text = text.strip()
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+        try:
+            f = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if math.isfinite(f) and not f.is_integer():
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not math.isfinite(f) or abs(f) > MAX_INT:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer in [{lo}, {MAX_INT}], got {text!r}") from None
+        value = int(f)
+    if value < lo or value > MAX_INT:
+        raise argparse.ArgumentTypeError(f"expected an integer in [{lo}, {MAX_INT}], got {text!r}")
     return value
 
 
+def _positive_int(text: str) -> int:
+    return _int_arg(text, 1)
+
+
+def _nonneg_int(text: str) -> int:
+    return _int_arg(text, 0)
+
+
+class _Parser(argparse.ArgumentParser):
+    """``ArgumentParser`` whose errors are one line on stderr (exit status 2)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} "
+                     f"(see {self.prog} --help)\n")
+
+
+def _add_debug(p: argparse.ArgumentParser, default: object) -> None:
+    p.add_argument("--debug", action="store_true", default=default,
+                   help="show the Python traceback of an error")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="wheelgym",
         description="Wheeled-robot Gymnasium environments: train, evaluate, demo, validate.",
     )
+    _add_debug(p, False)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     m = sub.add_parser("main", help="train the default agent, evaluate it, print the table")
@@ -114,6 +148,8 @@ def _parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
+    for sp in (m, t, e, b, d, v):
+        _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
     return p
 
 
@@ -191,12 +227,22 @@ def _cmd_main(a: argparse.Namespace) -> int:
 def _cmd_benchmark(a: argparse.Namespace) -> int:
     from wheelgym.agents.benchmark import run_benchmark
 
+    if a.out is not None:
+        _check_writable_file(a.out, "--out")
     table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds, episodes=a.episodes,
                           budget=a.budget, runs_root=a.runs_root, log=_print)
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
     return 0
+
+
+def _check_writable_file(path: Path, what: str) -> None:
+    """Refuse an output file path that cannot be written, before any work is done."""
+    if path.is_dir():
+        raise ValueError(f"{what} {str(path)!r} is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise ValueError(f"{what} {str(path)!r}: folder {str(path.parent)!r} does not exist")
 
 
 def _display_available() -> bool:
@@ -223,6 +269,11 @@ def _cmd_demo(a: argparse.Namespace) -> int:
         kwargs["task"] = a.task
     if a.action_mode is not None:
         kwargs["action_mode"] = a.action_mode
+    if a.out is not None and a.out.suffix in (".gif", ".mp4"):
+        _check_writable_file(a.out, "--out")
+    elif a.out is not None and a.out.exists() and not a.out.is_dir():
+        raise ValueError(f"--out {str(a.out)!r} exists and is not a folder (for PNG frames); "
+                         "give a folder, or a .gif or .mp4 file")
     human = a.out is None and _display_available()
     env = gym.make(env_id, render_mode="human" if human else "rgb_array", **kwargs)
     try:
@@ -279,13 +330,34 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command != "validate":
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
         args.args = [*args.args, *extra]
+    debug = bool(getattr(args, "debug", False) or os.environ.get("WHEELGYM_DEBUG"))
+    prefix = f"wheelgym {args.command}"
     try:
         return _COMMANDS[args.command](args)
-    except ValueError as e:
-        if os.environ.get("WHEELGYM_DEBUG"):
+    except KeyboardInterrupt:
+        if debug:
             raise
-        print(f"wheelgym {args.command}: error: {e}", file=sys.stderr)
+        print(f"{prefix}: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, TypeError, OSError) as e:  # arguments, configs, files
+        if debug:
+            raise
+        msg = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
+        if isinstance(e, OSError) and e.filename is not None:
+            msg = f"{e.filename}: {msg}"
+        print(f"{prefix}: error: {_one_line(msg)}", file=sys.stderr)
         return 2
+    except Exception as e:  # anything else: still one line (--debug for the traceback)
+        if debug:
+            raise
+        print(f"{prefix}: error: {type(e).__name__}: {_one_line(e)} (--debug shows the "
+              "traceback)", file=sys.stderr)
+        return 1
+
+
+def _one_line(e: object, limit: int = 400) -> str:
+    line = " ".join(str(e).split()) or "(no message)"
+    return line if len(line) <= limit else line[: limit - 3] + "..."
 
 
 if __name__ == "__main__":  # pragma: no cover

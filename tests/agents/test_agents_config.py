@@ -184,3 +184,47 @@ def test_each_algorithm_builds_and_steps(algo, tmp_path):
     if algo in ("sac", "td3"):
         assert model.action_noise is not None
     venv.close()
+
+
+# --------------------------------------------------------------------------------------------
+# YAML aliases (issue 14, item 10)
+# --------------------------------------------------------------------------------------------
+
+
+def _alias_bomb(levels: int = 9, width: int = 9) -> str:
+    lines = ["a0: &a0 [" + ", ".join(["1"] * width) + "]"]
+    lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]"
+              for i in range(1, levels + 1)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text", [
+    _alias_bomb() + "wheelgym: {algo: ppo}\n",  # 9^10 shared nodes
+    "a: &a [*a]\nwheelgym: {algo: ppo}\n",  # recursive
+    "wheelgym/ThreeWheel-v0: &b {n_timesteps: 10}\nwheelgym: {algo: ppo, env_kwargs: *b}\n",
+    "d: &d {seed: 1}\nwheelgym: {<<: *d, algo: ppo}\n",  # merge key
+], ids=["bomb", "recursive", "plain-alias", "merge-key"])
+def test_yaml_aliases_are_refused_in_one_line(tmp_path, text):
+    import time
+
+    p = tmp_path / "alias.yml"
+    p.write_text(text)
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError) as e:
+        load_config(p)
+    assert time.perf_counter() - t0 < 2.0
+    msg = str(e.value)
+    assert msg.startswith(f"{p}: ") and "aliases are not allowed" in msg and "\n" not in msg
+
+
+def test_config_yaml_loader_is_safe_load_without_aliases(tmp_path):
+    from wheelgym.agents.config import safe_load_config_yaml
+
+    for path in CONFIGS:  # every shipped config reads as yaml.safe_load reads it
+        assert safe_load_config_yaml(path) == yaml.safe_load(path.read_text()), path
+    p = tmp_path / "c.yml"
+    p.write_text("x: !!python/name:os.system\n")  # safe_load's refusal of object tags stays
+    with pytest.raises(ValueError, match="not valid YAML"):
+        safe_load_config_yaml(p)
+    p.write_text("anchor_only: &a 3\nb: [1, 2]\n")  # an anchor without alias is harmless
+    assert safe_load_config_yaml(p) == {"anchor_only": 3, "b": [1, 2]}

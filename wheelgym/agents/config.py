@@ -20,10 +20,12 @@ would otherwise carry (algorithm, env keyword arguments, seed, evaluation settin
       eval_episodes: 10
       checkpoint_freq: 50000         # environment steps between checkpoints (0: none)
 
-Files are read with ``yaml.safe_load`` and nothing in them is evaluated: ``policy_kwargs`` holds
-plain values (``net_arch: [64, 64]``; ``activation_fn`` by a name from :data:`ACTIVATIONS`).
-Every unknown key and every bad value raises ``ValueError`` naming the file, the key and the
-valid choices.
+Files are read with :func:`safe_load_config_yaml` (``yaml.safe_load`` semantics, but YAML
+aliases ``*name`` are refused: a config never needs them, and nested aliases can expand
+exponentially; merge keys ``<<: *x`` are aliases too) and nothing in them is evaluated:
+``policy_kwargs`` holds plain values (``net_arch: [64, 64]``; ``activation_fn`` by a name from
+:data:`ACTIVATIONS`). Every unknown key and every bad value raises ``ValueError`` (one line)
+naming the file, the key and the valid choices.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ __all__ = [
     "parse_config",
     "default_config_path",
     "configs_dir",
+    "safe_load_config_yaml",
 ]
 
 #: Supported algorithms (Stable-Baselines3 class names in lower case).
@@ -66,6 +69,61 @@ DEVICES: tuple[str, ...] = ("cpu", "cuda", "auto")
 
 _ON_POLICY = ("ppo", "a2c")
 
+#: Largest accepted seed (NumPy's legacy seeding and SB3's ``set_random_seed`` need < 2**32).
+MAX_SEED = 2**32 - 1
+
+
+class _NoAliasSafeLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses aliases (``*name``), so no document can expand."""
+
+    def compose_node(self, parent, index):  # type: ignore[override]
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(
+                None, None,
+                f"YAML aliases are not allowed in configs (found *{event.anchor}; write the "
+                "value out instead)",
+                event.start_mark,
+            )
+        return super().compose_node(parent, index)
+
+
+def _one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+def _yaml_message(e: yaml.YAMLError) -> str:
+    """A YAML error as one line: what went wrong and where (no source snippet)."""
+    if isinstance(e, yaml.MarkedYAMLError):
+        what = "; ".join(_one_line(x) for x in (e.context, e.problem) if x) or "syntax error"
+        mark = e.problem_mark or e.context_mark
+        if mark is not None:
+            what += f" (line {mark.line + 1}, column {mark.column + 1})"
+        return what
+    return _one_line(e)
+
+
+def safe_load_config_yaml(path: str | Path) -> Any:
+    """Read a config YAML file like ``yaml.safe_load``, refusing aliases.
+
+    Raises ``ValueError`` (one line, naming the file) for unreadable files, invalid YAML and
+    aliases.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: cannot read config: {_one_line(e)}") from None
+    loader = _NoAliasSafeLoader(text)
+    try:
+        return loader.get_single_data()
+    except yaml.YAMLError as e:
+        raise ValueError(f"{path}: not valid YAML: {_yaml_message(e)}") from None
+    except RecursionError:  # deeply nested flow collections
+        raise ValueError(f"{path}: not valid YAML: nested too deeply") from None
+    finally:
+        loader.dispose()
+
 
 # --------------------------------------------------------------------------------------------
 # value checkers: each returns the cleaned value or raises ValueError(message without context)
@@ -80,7 +138,7 @@ def _is_num(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _int(lo: int | None = None, allow: tuple[int, ...] = ()):
+def _int(lo: int | None = None, allow: tuple[int, ...] = (), hi: int | None = None):
     def check(v: Any) -> int:
         if isinstance(v, float) and math.isfinite(v) and v.is_integer():
             v = int(v)  # YAML writes 2.0e5 as a float
@@ -91,6 +149,8 @@ def _int(lo: int | None = None, allow: tuple[int, ...] = ()):
         if lo is not None and v < lo:
             extra = f" (or one of {list(allow)})" if allow else ""
             raise ValueError(f"must be >= {lo}{extra}, got {v!r}")
+        if hi is not None and v > hi:
+            raise ValueError(f"must be <= {hi}, got {v!r}")
         return v
 
     return check
@@ -321,7 +381,7 @@ for _k in ("use_sde", "sde_sample_freq"):
 _WHEELGYM_KEYS: dict[str, Any] = {
     "algo": _choice(*ALGOS),
     "env_kwargs": None,  # checked separately (a mapping; the environment validates values)
-    "seed": _int(0),
+    "seed": _int(0, hi=MAX_SEED),
     "eval_freq": _int(0),
     "eval_episodes": _int(1),
     "checkpoint_freq": _int(0),
@@ -557,15 +617,13 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
 
 
 def load_config(path: str | Path) -> TrainConfig:
-    """Read a YAML config with ``yaml.safe_load`` and validate it (see :func:`parse_config`)."""
+    """Read a YAML config with :func:`safe_load_config_yaml` and validate it (see
+    :func:`parse_config`)."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"config file {str(path)!r} not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        raise ValueError(f"{path}: not valid YAML: {e}") from None
-    return parse_config(data, source=str(path))
+        raise ValueError(f"config file {str(path)!r} not found"
+                         + (" (it is a folder)" if path.is_dir() else ""))
+    return parse_config(safe_load_config_yaml(path), source=str(path))
 
 
 def configs_dir() -> Path:

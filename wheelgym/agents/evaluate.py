@@ -18,7 +18,16 @@ saturation                % time  share of steps with any ``info["saturated"]`` 
 ========================= ======= =========================================================
 
 The table gives mean ± standard deviation over episodes; a metric that an environment does
-not report reads ``n/a``.
+not report reads ``n/a``. Columns that mean nothing for the environment are left out of
+``results.md``, ``results.csv`` and ``episodes.csv`` (:func:`applicable_metrics`): the RMS
+tracking error on ``goal`` and ``navigate`` (a distance to a goal, not a tracking error), energy
+and peak torque for the kinematic robots (no motors), and the internal force for robots that
+have none (all but ThreeWheel).
+
+Plots: ``trajectories.png`` (x-y paths against goal or reference) and, per policy over its first
+recorded episode, ``torques.png`` (the applied motor torques, one line per named motor:
+``drive_1`` ... ``steer_3`` on ThreeWheel) for the dynamic robots or ``inputs.png`` (the
+commanded inputs in physical units, e.g. ``v`` [m/s] and ``w`` [rad/s]) for the kinematic ones.
 """
 
 from __future__ import annotations
@@ -43,6 +52,10 @@ __all__ = [
     "write_csv",
     "evaluate_run",
     "EvaluationResult",
+    "applicable_metrics",
+    "input_channels",
+    "plot_torques",
+    "plot_inputs",
 ]
 
 #: Per-episode metrics in table order: (attribute, column header, scale for display).
@@ -76,7 +89,8 @@ class Episode:
     numerical_failure: bool = False
     dt: float = 1.0
     poses: np.ndarray | None = None  # (T + 1, 3): x, y, yaw
-    torques: np.ndarray | None = None  # (T, n_motors)
+    torques: np.ndarray | None = None  # (T, n_motors); None for robots without motors
+    inputs: np.ndarray | None = None  # (T, m) commanded inputs of robots without motors
     goal: np.ndarray | None = None  # goal pose (x, y[, yaw])
     reference: np.ndarray | None = None  # (T, 3) reference poses along the episode (track)
     frames: list = field(default_factory=list)
@@ -119,6 +133,75 @@ def _target_pose(env: gym.Env) -> np.ndarray | None:
     return np.asarray(fn(), dtype=np.float64).reshape(-1, 3)[0]
 
 
+#: Units of the kinematic models' input names (models.kinematic ``input_modes``).
+_INPUT_UNITS = {"v": "m/s", "w": "rad/s", "psi": "rad", "psidot": "rad/s", "phidot": "rad/s",
+                "phidot_L": "rad/s", "phidot_R": "rad/s"}
+
+
+def _core(env: gym.Env) -> Any:
+    return getattr(env.unwrapped, "core", None)
+
+
+def _has_motors(env: gym.Env) -> bool:
+    spec = getattr(_core(env), "spec", None)
+    return spec is None or getattr(spec, "n_motor", 1) > 0
+
+
+def input_channels(env: gym.Env) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
+    """What the input plot of ``env`` shows: ``(kind, names, units)``.
+
+    ``kind`` is ``"torque"`` (dynamic robots: the motors, named by the robot spec's
+    ``motor_names``) or ``"input"`` (kinematic robots: the commanded inputs of the action mode,
+    e.g. ``("v", "w")`` in ``("m/s", "rad/s")``).
+    """
+    core = _core(env)
+    spec = getattr(core, "spec", None)
+    n_act = int(np.prod(env.action_space.shape or (0,)))
+    if _has_motors(env):
+        n = getattr(spec, "n_motor", n_act)
+        names = tuple(getattr(spec, "motor_names", ()) or ())
+        if len(names) != n:
+            names = tuple(getattr(getattr(core, "model", None), "input_names", ()) or ())
+        if len(names) != n:
+            names = tuple(f"motor {j + 1}" for j in range(n))
+        return "torque", names, ("N·m",) * n
+    names = tuple(getattr(getattr(core, "model", None), "input_names", ()) or ())
+    if len(names) != n_act:
+        return "input", tuple(f"action {j + 1}" for j in range(n_act)), ("-",) * n_act
+    return "input", names, tuple(_INPUT_UNITS.get(n, "-") for n in names)
+
+
+def applicable_metrics(env: gym.Env) -> tuple[str, ...]:
+    """The :data:`METRICS` attributes that mean something for ``env`` (see module docstring)."""
+    core = _core(env)
+    spec = getattr(core, "spec", None)
+    task = getattr(core, "task_name", None)
+    skip = set()
+    if task in ("goal", "navigate"):
+        skip.add("rms_tracking_error")
+    if spec is not None:
+        if getattr(spec, "n_motor", 1) == 0:
+            skip |= {"energy", "peak_torque", "mean_internal_force"}
+        if not getattr(spec, "has_internal_force", True):
+            skip.add("mean_internal_force")
+    return tuple(a for a, _, _ in METRICS if a not in skip)
+
+
+def _commanded_input(env: gym.Env, action: Any) -> np.ndarray:
+    """The input a robot without motors was commanded this step, in physical units.
+
+    The environment scales the clipped action onto the input bounds into its ``U`` buffer; where
+    that is not exposed, the clipped action itself (normalised, in [-1, 1]).
+    """
+    u = getattr(_core(env), "U", None)
+    a = np.clip(np.asarray(action, dtype=np.float64).ravel(), -1.0, 1.0)
+    if u is not None:
+        row = np.asarray(u[0], dtype=np.float64).ravel()
+        if row.size == a.size:
+            return row.copy()
+    return a
+
+
 def run_episode(
     env: gym.Env,
     policy: Any,
@@ -131,13 +214,15 @@ def run_episode(
     """Run one episode of ``policy`` on ``env`` reset with ``seed``; return its scores.
 
     ``policy`` has SB3's ``predict(obs, state, episode_start, deterministic)``. ``record``
-    keeps poses, torques, goal and reference for plots; ``render`` keeps ``env.render()``
-    frames (the env must have ``render_mode="rgb_array"``).
+    keeps poses, torques (or, for robots without motors, the commanded inputs), goal and
+    reference for plots; ``render`` keeps ``env.render()`` frames (the env must have
+    ``render_mode="rgb_array"``).
     """
     obs, info = env.reset(seed=seed)
     _reset_policy(policy, seed)
     ep = Episode(seed=seed, dt=float(getattr(env.unwrapped, "dt", 1.0) or 1.0))
-    poses, torques, refs = [], [], []
+    poses, torques, inputs, refs = [], [], [], []
+    motors = _has_motors(env)
     if record:
         ep.goal = _goal_of(info)
         if "pose" in info:
@@ -164,12 +249,15 @@ def run_episode(
             e = _pos_error(info["tracking_error"])
             err2 += e * e
             n_err += 1
-        if "motor_torque" in info:
+        if motors and "motor_torque" in info:
             tau = np.asarray(info["motor_torque"], dtype=np.float64).ravel()
-            m = float(np.max(np.abs(tau))) if tau.size else 0.0
-            peak = m if peak is None else max(peak, m)
-            if record:
-                torques.append(tau)
+            if tau.size:
+                m = float(np.max(np.abs(tau)))
+                peak = m if peak is None else max(peak, m)
+                if record:
+                    torques.append(tau)
+        if record and not motors:
+            inputs.append(_commanded_input(env, action))
         if "internal_force" in info and info["internal_force"] is not None:
             f_sum += _norm(info["internal_force"])
             n_force += 1
@@ -200,6 +288,7 @@ def run_episode(
     if record:
         ep.poses = np.array(poses) if poses else None
         ep.torques = np.array(torques) if torques else None
+        ep.inputs = np.array(inputs) if inputs else None
         if refs and len({r.size for r in refs}) == 1:
             ep.reference = np.array(refs)
     return ep
@@ -251,14 +340,29 @@ def _fmt(v: float) -> str:
     return f"{v:.2e}"
 
 
+def _selected(metrics: Sequence[str] | None) -> list[tuple[str, str, float]]:
+    if metrics is None:
+        return list(METRICS)
+    known = [a for a, _, _ in METRICS]
+    bad = sorted(set(metrics) - set(known))
+    if bad:
+        raise ValueError(f"metrics {bad} unknown; valid metrics: {known}")
+    return [m for m in METRICS if m[0] in metrics]
+
+
 def format_markdown(rows: dict[str, dict[str, tuple[float, float] | None]],
-                    n_episodes: int | None = None) -> str:
-    """A Markdown table: one row per policy, ``mean ± std`` cells, ``n/a`` where not reported."""
-    head = ["policy", *(h for _, h, _ in METRICS)]
+                    n_episodes: int | None = None,
+                    metrics: Sequence[str] | None = None) -> str:
+    """A Markdown table: one row per policy, ``mean ± std`` cells, ``n/a`` where not reported.
+
+    ``metrics``: the :data:`METRICS` attributes to show (default all), in table order.
+    """
+    chosen = _selected(metrics)
+    head = ["policy", *(h for _, h, _ in chosen)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, stats in rows.items():
         cells = [name]
-        for attr, _, _ in METRICS:
+        for attr, _, _ in chosen:
             s = stats.get(attr)
             if s is None:
                 cells.append("n/a")
@@ -273,9 +377,13 @@ def format_markdown(rows: dict[str, dict[str, tuple[float, float] | None]],
     return "\n".join(lines)
 
 
-def write_csv(path: str | Path, rows: dict[str, dict[str, tuple[float, float] | None]]) -> None:
-    """The table as CSV: ``policy, <metric>_mean, <metric>_std, ...`` (empty: not reported)."""
-    names = [a for a, _, _ in METRICS] + ["length"]
+def write_csv(path: str | Path, rows: dict[str, dict[str, tuple[float, float] | None]],
+              metrics: Sequence[str] | None = None) -> None:
+    """The table as CSV: ``policy, <metric>_mean, <metric>_std, ...`` (empty: not reported).
+
+    ``metrics``: the :data:`METRICS` attributes to write (default all); ``length`` always.
+    """
+    names = [a for a, _, _ in _selected(metrics)] + ["length"]
     with Path(path).open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["policy", *(f"{n}_{s}" for n in names for s in ("mean", "std"))])
@@ -339,28 +447,49 @@ def plot_trajectories(results: dict[str, list[Episode]], path: str | Path) -> Pa
     return Path(path)
 
 
-def plot_torques(results: dict[str, list[Episode]], path: str | Path) -> Path:
-    """Applied motor torques over the first recorded episode of each policy."""
+def _plot_series(results: dict[str, list[Episode]], path: str | Path, attr: str,
+                 names: Sequence[str], units: Sequence[str], missing: str, ylabel: str) -> Path:
     n = len(results)
     fig = _figure(8.0, 2.4 * n)
     axes = fig.subplots(n, 1, squeeze=False)[:, 0]
     for ax, (name, episodes) in zip(axes, results.items(), strict=True):
-        e = next((e for e in episodes if e.torques is not None), None)
-        if e is None:
-            ax.text(0.5, 0.5, "no motor_torque in info", ha="center", va="center",
-                    transform=ax.transAxes)
+        e = next((e for e in episodes if getattr(e, attr) is not None), None)
+        series = None if e is None else getattr(e, attr)
+        if series is None or series.ndim != 2 or series.shape[1] == 0:
+            ax.text(0.5, 0.5, missing, ha="center", va="center", transform=ax.transAxes)
         else:
-            t = np.arange(1, len(e.torques) + 1) * e.dt
-            for j in range(e.torques.shape[1]):
-                ax.plot(t, e.torques[:, j], lw=1, label=f"motor {j + 1}")
-            ax.legend(fontsize=7, ncol=min(e.torques.shape[1], 6), loc="upper right")
+            t = np.arange(1, len(series) + 1) * e.dt
+            k = series.shape[1]
+            labels = list(names)[:k] + [f"{attr} {j + 1}" for j in range(len(names), k)]
+            ulabels = list(units)[:k] + ["-"] * (k - len(units))
+            for j in range(k):
+                unit = "" if len(set(units)) <= 1 else f" [{ulabels[j]}]"
+                ax.plot(t, series[:, j], lw=1, label=labels[j] + unit)
+            ax.legend(fontsize=7, ncol=min(k, 6), loc="upper right")
             ax.set_title(f"{name} (seed {e.seed})", fontsize=9)
-        ax.set_ylabel("torque [N·m]")
+        same = len(set(units)) == 1
+        ax.set_ylabel(f"{ylabel} [{units[0]}]" if same else ylabel)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
     fig.savefig(path)
     return Path(path)
+
+
+def plot_torques(results: dict[str, list[Episode]], path: str | Path,
+                 motor_names: Sequence[str] = ()) -> Path:
+    """Applied motor torques over the first recorded episode of each policy, one line per motor
+    (labelled by ``motor_names``, e.g. the robot spec's)."""
+    return _plot_series(results, path, "torques", motor_names, ("N·m",),
+                        "no motor torques recorded", "torque")
+
+
+def plot_inputs(results: dict[str, list[Episode]], path: str | Path,
+                names: Sequence[str] = (), units: Sequence[str] = ()) -> Path:
+    """Commanded inputs of robots without motors (e.g. ``v``, ``w``) over the first recorded
+    episode of each policy."""
+    return _plot_series(results, path, "inputs", names, units, "no commanded inputs recorded",
+                        "commanded input")
 
 
 def save_video(frames: list, path: str | Path, fps: float) -> Path:
@@ -418,8 +547,9 @@ def evaluate_run(
     """Evaluate a run folder: agent vs baseline vs random on seeds ``seed .. seed+episodes-1``.
 
     Writes ``results.md``, ``results.csv``, ``episodes.csv``, ``trajectories.png``,
-    ``torques.png`` (and ``video_<policy>.mp4`` with ``video``) into ``out_dir`` (default
-    ``<run>/eval``, made new if it exists). ``model``: ``"final"`` (model.zip) or ``"best"``.
+    ``torques.png`` (dynamic robots) or ``inputs.png`` (kinematic robots), and
+    ``video_<policy>.mp4`` with ``video``, into ``out_dir`` (default ``<run>/eval``, made new if
+    it exists). ``model``: ``"final"`` (model.zip) or ``"best"``.
     """
     from wheelgym.agents.config import load_config
     from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
@@ -446,6 +576,8 @@ def evaluate_run(
 
     env = make_single_env(config)
     try:
+        metrics = applicable_metrics(env)
+        kind, channel_names, channel_units = input_channels(env)
         policies: dict[str, Any] = {agent.name: agent}
         if include_baseline:
             try:
@@ -460,7 +592,7 @@ def evaluate_run(
         env.close()
 
     rows = {name: summarize(eps) for name, eps in results.items()}
-    table = format_markdown(rows, episodes)
+    table = format_markdown(rows, episodes, metrics)
     files = {
         "results.md": out / "results.md",
         "results.csv": out / "results.csv",
@@ -469,10 +601,14 @@ def evaluate_run(
     header = (f"# {config.env_id} {config.env_kwargs}, {config.algo.upper()} run "
               f"{run.name}\n\n")
     files["results.md"].write_text(header + table + "\n" + "".join(f"\n{n}" for n in notes))
-    write_csv(files["results.csv"], rows)
-    _write_episodes_csv(files["episodes.csv"], results)
+    write_csv(files["results.csv"], rows, metrics)
+    _write_episodes_csv(files["episodes.csv"], results, metrics)
     files["trajectories.png"] = plot_trajectories(results, out / "trajectories.png")
-    files["torques.png"] = plot_torques(results, out / "torques.png")
+    if kind == "torque":
+        files["torques.png"] = plot_torques(results, out / "torques.png", channel_names)
+    else:
+        files["inputs.png"] = plot_inputs(results, out / "inputs.png", channel_names,
+                                          channel_units)
     if video:
         for name in results:
             vid_env = make_single_env(config, render_mode="rgb_array")
@@ -500,8 +636,9 @@ def _fresh_dir(path: Path) -> Path:
     raise RuntimeError(f"could not create an output folder next to {path}")
 
 
-def _write_episodes_csv(path: Path, results: dict[str, list[Episode]]) -> None:
-    attrs = ["seed", "length", *(a for a, _, _ in METRICS), "numerical_failure"]
+def _write_episodes_csv(path: Path, results: dict[str, list[Episode]],
+                        metrics: Sequence[str] | None = None) -> None:
+    attrs = ["seed", "length", *(a for a, _, _ in _selected(metrics)), "numerical_failure"]
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["policy", *attrs])

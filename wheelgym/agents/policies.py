@@ -65,8 +65,12 @@ def load_vecnormalize(path: str | Path) -> Any | None:
     path = Path(path)
     if not path.is_file():
         return None
-    with path.open("rb") as f:
-        vn = pickle.load(f)  # noqa: S301 - our own run folder, as SB3's VecNormalize.load does
+    try:
+        with path.open("rb") as f:
+            vn = pickle.load(f)  # noqa: S301 - our own run folder, as SB3's VecNormalize.load does
+    except Exception as e:
+        raise ValueError(f"{path}: cannot load VecNormalize statistics: "
+                         f"{type(e).__name__}: {e}") from None
     vn.training = False
     vn.norm_reward = False
     return vn
@@ -77,7 +81,11 @@ def load_agent(model_path: str | Path, algo: str, vecnorm_path: str | Path | Non
     """Load ``model.zip`` (and the statistics next to it) as an :class:`AgentPolicy`."""
     from wheelgym.agents.train import algo_class
 
-    model = algo_class(algo).load(str(model_path), device=device)
+    try:
+        model = algo_class(algo).load(str(model_path), device=device)
+    except Exception as e:
+        raise ValueError(f"{model_path}: cannot load the {algo.upper()} model: "
+                         f"{type(e).__name__}: {e}") from None
     obs_norm = load_vecnormalize(vecnorm_path) if vecnorm_path is not None else None
     return AgentPolicy(model, obs_norm, name=f"agent ({algo.upper()})")
 

@@ -7,18 +7,30 @@ gets a ``-2``, ``-3`` suffix) holds:
 file                   content
 ====================== ======================================================================
 config.yml             the config as used (overrides applied), loadable by ``load_config``
-model.zip              the final (or interrupted) model
+model.zip              the final (or interrupted, or failed) model
 vecnormalize.pkl       ``VecNormalize`` statistics (when ``normalize`` is on)
-eval.csv               evaluation history: steps, wall time, mean/std return, success rate
+eval.csv               evaluation history: steps, wall time (continued across resumes),
+                       mean/std return, success rate
 best_model.zip         the model of the best evaluation (and ``best_vecnormalize.pkl``)
 checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
 tb/                    TensorBoard logs
-run.json               status (running, finished, interrupted), steps, wall time, versions
+run.json               ``status``, steps, wall time, versions; ``error`` when failed
+run.lock               present while a process trains in the folder (holds its pid)
 ====================== ======================================================================
 
+``status`` in run.json: ``running`` while training; ``finished`` when the target number of steps
+was reached; ``interrupted`` after Ctrl-C (SIGINT); ``failed`` when training raised (``error``
+holds the exception's type and message; the exception propagates). A process that died without
+a word (SIGKILL, power loss) leaves ``running``.
+
 Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
-Ctrl-C stops at once, still saving). ``resume`` continues a run in its own folder from its last
-saved model or checkpoint.
+Ctrl-C stops at once, still saving); ``subproc`` vector-env workers ignore SIGINT (they share the
+terminal's process group), so the main process stops them cleanly. ``resume`` continues a run in
+its own folder from its last saved model or checkpoint.
+
+Only one process at a time trains in a run folder: ``train`` and ``resume`` take ``run.lock``
+(created exclusively) and remove it on exit; a second process is refused with ``ValueError``. A
+lock whose process no longer exists (a killed run) is stale and taken over.
 """
 
 from __future__ import annotations
@@ -49,6 +61,7 @@ __all__ = [
     "train",
     "resume",
     "new_run_dir",
+    "RunLock",
     "TrainResult",
 ]
 
@@ -113,10 +126,14 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
         venv.action_space.seed(seed)
     else:
         env_id, kwargs = config.env_id, dict(config.env_kwargs)
+        subproc = config.vec_env == "subproc"
 
         def factory(rank: int) -> Callable[[], gym.Env]:
             def _init() -> gym.Env:
                 import wheelgym  # noqa: F401  (subprocess workers register the ids)
+
+                if subproc:  # the worker: Ctrl-C is the main process's to handle (it saves)
+                    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
                 env = gym.make(env_id, **kwargs)
                 env.action_space.seed(seed + rank)
@@ -124,7 +141,7 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
 
             return _init
 
-        cls = SubprocVecEnv if config.vec_env == "subproc" else DummyVecEnv
+        cls = SubprocVecEnv if subproc else DummyVecEnv
         try:
             venv = cls([factory(i) for i in range(n)])
         except TypeError as e:
@@ -202,10 +219,19 @@ def build_model(config: TrainConfig, venv, tensorboard_log: str | None = None, v
 # --------------------------------------------------------------------------------------------
 
 
+def _check_root(root: Path) -> None:
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"runs root {str(root)!r} exists and is not a folder")
+
+
 def new_run_dir(config: TrainConfig, root: str | Path | None = None) -> Path:
     """Create a fresh run folder; never returns an existing one."""
     root = Path(RUNS_DIR if root is None else root)
-    root.mkdir(parents=True, exist_ok=True)
+    _check_root(root)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"cannot create runs root {str(root)!r}: {e.strerror or e}") from None
     stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
     base = f"{config.name}-s{config.seed}-{stamp}"
     for i in range(1, 1000):
@@ -218,12 +244,119 @@ def new_run_dir(config: TrainConfig, root: str | Path | None = None) -> Path:
     raise RuntimeError(f"could not create a new run folder under {root}")
 
 
-def _use_given_dir(path: Path) -> Path:
-    """A user-chosen ``--run-dir``: created new, never one that exists and holds files."""
-    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+LOCK_NAME = "run.lock"
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    except OSError:
+        return False
+    return True
+
+
+def _read_lock_pid(path: Path) -> int | None:
+    try:
+        return int(path.read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+class RunLock:
+    """Exclusive ownership of a run folder: ``run.lock`` created with ``O_EXCL``, holding the pid.
+
+    A lock whose pid is no longer a live process is stale and is taken over. Released (the file
+    removed) by :meth:`release`, or on leaving the ``with`` block.
+    """
+
+    def __init__(self, run_dir: str | Path) -> None:
+        self.path = Path(run_dir) / LOCK_NAME
+        self.held = False
+
+    def acquire(self) -> RunLock:
+        for _ in range(3):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                pid = _read_lock_pid(self.path)
+                if pid is None:  # being written right now, or garbage: look again
+                    time.sleep(0.05)
+                    pid = _read_lock_pid(self.path)
+                if pid is not None and _pid_alive(pid):
+                    raise ValueError(
+                        f"run dir {str(self.path.parent)!r} is in use by another wheelgym "
+                        f"process (pid {pid}); wait for it or choose another folder"
+                    ) from None
+                self._remove_stale(pid)
+                continue
+            except OSError as e:
+                raise ValueError(
+                    f"cannot lock run dir {str(self.path.parent)!r}: {e.strerror or e}"
+                ) from None
+            with os.fdopen(fd, "w") as f:
+                f.write(f"{os.getpid()}\n")
+            self.held = True
+            return self
+        raise ValueError(f"could not lock run dir {str(self.path.parent)!r} (contended)")
+
+    def _remove_stale(self, pid: int | None) -> None:
+        """Move a stale lock aside; put it back if it turned out to be a fresh one."""
+        aside = self.path.with_name(f"{LOCK_NAME}.stale-{os.getpid()}")
+        try:
+            os.replace(self.path, aside)
+        except FileNotFoundError:
+            return  # someone else removed it
+        if _read_lock_pid(aside) != pid and _read_lock_pid(aside) is not None:
+            try:  # a live process re-created it meanwhile: give it back
+                os.link(aside, self.path)
+            except OSError:
+                pass
+        try:
+            aside.unlink()
+        except OSError:
+            pass
+
+    def release(self) -> None:
+        if self.held:
+            self.held = False
+            if _read_lock_pid(self.path) == os.getpid():
+                try:
+                    self.path.unlink()
+                except OSError:
+                    pass
+
+    def __enter__(self) -> RunLock:
+        return self.acquire() if not self.held else self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def _use_given_dir(path: Path) -> tuple[Path, RunLock]:
+    """A user-chosen ``--run-dir``, created and locked; never one that holds files."""
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"run dir {str(path)!r} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"cannot create run dir {str(path)!r}: {e.strerror or e}") from None
+    lock = RunLock(path).acquire()
+    if any(p.name != LOCK_NAME for p in path.iterdir()):
+        lock.release()
         raise ValueError(f"run dir {str(path)!r} exists and is not empty; runs never overwrite")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    return path, lock
+
+
+def _short(text: str, limit: int = 400) -> str:
+    """One line of at most ``limit`` characters."""
+    line = " ".join(text.split())
+    return line if len(line) <= limit else line[: limit - 3] + "..."
 
 
 def _write_json(path: Path, data: dict) -> None:
@@ -277,7 +410,12 @@ class _StopOnSignal:
 
 
 def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSignal,
-                    progress: bool):
+                    progress: bool, wall: Callable[[], float]):
+    """SB3 callbacks: stop on SIGINT, progress bar, checkpoints, evaluation history.
+
+    ``wall()`` is the run's training wall time so far (s), continued across resumes; it is the
+    ``wall_s`` column of eval.csv.
+    """
     from stable_baselines3.common.callbacks import (
         BaseCallback,
         CallbackList,
@@ -303,10 +441,8 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
             self.path = run_dir / "eval.csv"
             self.best = -math.inf
             self.env: gym.Env | None = None
-            self.t0 = time.perf_counter()
 
         def _on_training_start(self) -> None:
-            self.t0 = time.perf_counter()
             if not self.path.exists():
                 with self.path.open("w", newline="") as f:
                     csv.writer(f).writerow(
@@ -334,7 +470,7 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
             mean_len = float(np.mean([e.length for e in episodes]))
             with self.path.open("a", newline="") as f:
                 csv.writer(f).writerow(
-                    [self.num_timesteps, f"{time.perf_counter() - self.t0:.2f}",
+                    [self.num_timesteps, f"{wall():.2f}",
                      f"{rets.mean():.6g}", f"{rets.std():.6g}",
                      "" if math.isnan(rate) else f"{rate:.4f}", f"{mean_len:.1f}"]
                 )
@@ -393,14 +529,20 @@ def _save(model, run_dir: Path) -> None:
 
 def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool,
            info: dict, reset_num_timesteps: bool) -> TrainResult:
+    """Train to ``total`` steps; save and record the status in run.json whatever happens."""
     t0 = time.perf_counter()
+    wall_before = float(info.get("wall_s", 0.0))
     remaining = max(total - model.num_timesteps, 0)
-    status = "finished"
+    status = "failed"
+    error: BaseException | None = None
     with _StopOnSignal() as stop:
-        info.update(status="running", target_timesteps=total)
-        _write_json(run_dir / "run.json", info)
-        callbacks = _make_callbacks(config, run_dir, model, stop, progress)
         try:
+            info.update(status="running", target_timesteps=total)
+            info.pop("error", None)
+            info.pop("notes", None)
+            _write_json(run_dir / "run.json", info)
+            callbacks = _make_callbacks(config, run_dir, model, stop, progress,
+                                        lambda: wall_before + time.perf_counter() - t0)
             if remaining > 0:
                 model.learn(
                     total_timesteps=remaining,
@@ -408,21 +550,34 @@ def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool
                     reset_num_timesteps=reset_num_timesteps,
                     tb_log_name="tb",
                 )
-            if stop.requested:
-                status = "interrupted"
+            done = model.num_timesteps >= total
+            status = "interrupted" if stop.requested and not done else "finished"
         except KeyboardInterrupt:
             status = "interrupted"
+        except BaseException as e:
+            error = e
+            raise
         finally:
-            _save(model, run_dir)
-            wall = time.perf_counter() - t0
+            notes = []
+            try:
+                _save(model, run_dir)
+            except Exception as e:  # never mask the training's own exception
+                notes.append(f"saving the model failed: {type(e).__name__}: {e}")
+            try:
+                model.get_env().close()
+            except Exception as e:
+                notes.append(f"closing the environments failed: {type(e).__name__}: {e}")
             info.update(
                 status=status,
                 timesteps=int(model.num_timesteps),
-                wall_s=round(info.get("wall_s", 0.0) + wall, 2),
+                wall_s=round(wall_before + time.perf_counter() - t0, 2),
                 finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
             )
+            if error is not None:
+                info["error"] = _short(f"{type(error).__name__}: {error}")
+            if notes:
+                info["notes"] = notes
             _write_json(run_dir / "run.json", info)
-            model.get_env().close()
     return TrainResult(run_dir, status, int(model.num_timesteps), info["wall_s"])
 
 
@@ -455,27 +610,39 @@ def train(
         config = config.replace(**changes)
     torch.set_num_threads(config.torch_threads)
 
-    venv = _wrap_normalize(make_train_env(config), config)
-    out = _use_given_dir(Path(run_dir)) if run_dir is not None else new_run_dir(config, runs_root)
+    if run_dir is not None:
+        out, lock = _use_given_dir(Path(run_dir))
+    else:
+        out = new_run_dir(config, runs_root)
+        lock = RunLock(out).acquire()
     try:
-        model = build_model(config, venv, tensorboard_log=str(out / "tb"), verbose=verbose)
-    except Exception:
-        venv.close()
-        if not any(out.iterdir()):
-            out.rmdir()
-        raise
-    config.dump(out / "config.yml")
-    info = {
-        "config_source": config.source,
-        "env_id": config.env_id,
-        "env_kwargs": config.env_kwargs,
-        "algo": config.algo,
-        "seed": config.seed,
-        "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "versions": _versions(),
-        "wall_s": 0.0,
-    }
-    return _learn(config, model, out, config.n_timesteps, progress, info, True)
+        try:
+            venv = _wrap_normalize(make_train_env(config), config)
+            try:
+                model = build_model(config, venv, tensorboard_log=str(out / "tb"),
+                                    verbose=verbose)
+            except BaseException:
+                venv.close()
+                raise
+        except BaseException:
+            lock.release()
+            if not any(out.iterdir()):  # nothing written: leave no empty folder behind
+                out.rmdir()
+            raise
+        config.dump(out / "config.yml")
+        info = {
+            "config_source": config.source,
+            "env_id": config.env_id,
+            "env_kwargs": config.env_kwargs,
+            "algo": config.algo,
+            "seed": config.seed,
+            "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "versions": _versions(),
+            "wall_s": 0.0,
+        }
+        return _learn(config, model, out, config.n_timesteps, progress, info, True)
+    finally:
+        lock.release()
 
 
 _CKPT = re.compile(r"ckpt_(\d+)_steps\.zip$")
@@ -518,24 +685,31 @@ def resume(
     run_dir = Path(run)
     if not (run_dir / "config.yml").is_file():
         raise ValueError(f"{run_dir}: not a run folder (no config.yml)")
-    config = load_config(run_dir / "config.yml")
-    if total_timesteps is not None:
-        config = config.replace(n_timesteps=total_timesteps)
-        config.dump(run_dir / "config.yml")
-    torch.set_num_threads(config.torch_threads)
-    model_path, stats_path = latest_model(run_dir)
-    # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
-    venv = make_train_env(config, seed=config.seed + 7919)
-    if config.normalize is not None:
-        if stats_path is None:
-            raise ValueError(f"{run_dir}: normalize is on but no VecNormalize statistics found")
-        venv = VecNormalize.load(str(stats_path), venv)
-        venv.training = True
-    model = algo_class(config.algo).load(
-        str(model_path), env=venv, device=config.device, tensorboard_log=str(run_dir / "tb"),
-        verbose=verbose,
-    )
-    info_path = run_dir / "run.json"
-    info = json.loads(info_path.read_text()) if info_path.is_file() else {}
-    info.setdefault("resumed_from", []).append(str(model_path.name))
-    return _learn(config, model, run_dir, config.n_timesteps, progress, info, False)
+    with RunLock(run_dir):
+        config = load_config(run_dir / "config.yml")
+        if total_timesteps is not None:
+            config = config.replace(n_timesteps=total_timesteps)
+        torch.set_num_threads(config.torch_threads)
+        model_path, stats_path = latest_model(run_dir)
+        # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
+        venv = make_train_env(config, seed=config.seed + 7919)
+        try:
+            if config.normalize is not None:
+                if stats_path is None:
+                    raise ValueError(
+                        f"{run_dir}: normalize is on but no VecNormalize statistics found")
+                venv = VecNormalize.load(str(stats_path), venv)
+                venv.training = True
+            model = algo_class(config.algo).load(
+                str(model_path), env=venv, device=config.device,
+                tensorboard_log=str(run_dir / "tb"), verbose=verbose,
+            )
+        except BaseException:
+            venv.close()
+            raise
+        if total_timesteps is not None:
+            config.dump(run_dir / "config.yml")
+        info_path = run_dir / "run.json"
+        info = json.loads(info_path.read_text()) if info_path.is_file() else {}
+        info.setdefault("resumed_from", []).append(str(model_path.name))
+        return _learn(config, model, run_dir, config.n_timesteps, progress, info, False)

@@ -46,6 +46,8 @@ class RobotSpec:
         has_internal_force: whether ``xf`` (the internal-force measure) is meaningful.
         geometry: ``geometry(params) -> dict`` for rendering (footprint, wheel size).
         wheels: ``wheels(x, params) -> (k, 3)`` wheel centres (m, in B) and angles (rad, in B).
+        motor_names: names of the motors in input order (``n_motor`` of them; empty for
+            kinematic robots), for plots and tables.
     """
 
     name: str
@@ -68,6 +70,7 @@ class RobotSpec:
     has_internal_force: bool
     geometry: Callable[[Params], dict]
     wheels: Callable[[np.ndarray, Params], np.ndarray]
+    motor_names: tuple[str, ...] = ()
 
 
 def guard_cache(module_file: str, *deps: str) -> None:

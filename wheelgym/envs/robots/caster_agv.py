@@ -119,4 +119,5 @@ SPEC = RobotSpec(
     has_internal_force=False,
     geometry=_geometry,
     wheels=_wheels,
+    motor_names=("drive_L", "drive_R"),
 )

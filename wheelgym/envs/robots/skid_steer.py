@@ -129,4 +129,5 @@ SPEC = RobotSpec(
     has_internal_force=False,
     geometry=_geometry,
     wheels=_wheels,
+    motor_names=("rear_left", "front_left", "front_right", "rear_right"),
 )

@@ -174,4 +174,5 @@ SPEC = RobotSpec(
     has_internal_force=True,
     geometry=_geometry,
     wheels=_wheels,
+    motor_names=("drive_1", "drive_2", "drive_3", "steer_1", "steer_2", "steer_3"),
 )
