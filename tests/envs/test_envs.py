@@ -57,7 +57,10 @@ def _same(a, b) -> bool:
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("task", TASKS)
 def test_same_seed_same_bits_and_seeds_differ(robot, task):
-    kw = {"task": task, "randomize": True, "obs_noise": 0.01}
+    from wheelgym.envs.robots import get_spec
+
+    # randomize=True where the robot has something to draw (else it is refused: see below)
+    kw = {"task": task, "randomize": bool(get_spec(robot).default_randomize), "obs_noise": 0.01}
     a = _rollout(make(robot, **kw), 3, 60)
     b = _rollout(make(robot, **kw), 3, 60)
     assert len(a) == len(b)
@@ -210,3 +213,9 @@ def test_make_time_and_dt():
     env = make("SkidSteer", ctrl_dt=0.1)
     assert env.unwrapped.dt == 0.1
     assert env.unwrapped.core.n_sub == round(0.1 / env.unwrapped.core.model.default_sim_dt)
+
+
+@pytest.mark.parametrize("robot", ["Bicycle", "Ackermann"])
+def test_randomize_true_with_nothing_to_draw_is_refused(robot):
+    with pytest.raises(ValueError, match="no parameters to randomise"):
+        make(robot, randomize=True)

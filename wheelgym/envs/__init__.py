@@ -81,7 +81,10 @@ class DiffDriveEnv(WheelEnv):
 
 class UnicycleEnv(WheelEnv):
     """Kinematic unicycle (physics.md section 4); action modes ``WheelSpeedHeadingRate``
-    (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds."""
+    (default) and ``VehicleSpeedHeadingRate``, scaled onto the nominal model's input bounds.
+    With ``randomize`` (wheel_radius) a wheel-speed command drives at the drawn radius; a
+    vehicle-speed command is changed only where the wheel-speed limit cuts it
+    (:class:`wheelgym.models.Unicycle`)."""
 
     robot = "Unicycle"
 

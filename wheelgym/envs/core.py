@@ -14,8 +14,9 @@ Core API::
 
 ``obs`` is the core's float32 buffer ``(N, obs_dim)`` (copy what you keep); ``info`` is a dict
 of per-row arrays (see :meth:`WheelCore.step`). The core never truncates: time limits belong to
-the wrappers (``max_episode_steps``); ``horizon`` is how far the track task evaluates its
-reference (it holds its last point after).
+the wrappers (``max_episode_steps``). The track task's reference never runs out: it is evaluated
+in windows that move on with the episode (``horizon`` only sizes the first one of small
+batches), so an episode of any length sees it move on.
 """
 
 from __future__ import annotations
@@ -50,12 +51,36 @@ __all__ = ["WheelCore", "DEFAULT_HORIZON"]
 
 
 
-def _check_dt(name: str, value: Any) -> float:
+#: Longest control period (s): a controller acting less than once a second leaves the robot
+#: open loop for seconds (the tasks' tolerances and speed limits assume ~0.05 s), and one step
+#: would integrate that whole stretch.
+MAX_CTRL_DT = 1.0
+#: Most RK4 substeps per control step (``ctrl_dt / sim_dt``): a substep costs about 1 us on
+#: one robot, so this caps one step near 10 ms (the default is 25-40 substeps; 1e-9 s took
+#: 25 s a step).
+MAX_SUBSTEPS = 10_000
+#: RK4 is stable for a real eigenvalue ``-lambda`` while ``lambda sim_dt`` is below this.
+RK4_REAL_STABILITY_LIMIT = 2.785
+
+
+def _check_dt(name: str, value: Any, high: float = math.inf) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise TypeError(f"{name} must be a positive number of seconds, got {value!r}")
     v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a positive finite number of seconds, got {value!r}")
+    if not (math.isfinite(v) and 0 < v <= high):
+        raise ValueError(f"{name} must be a positive finite number of seconds"
+                         + (f" <= {high:g}" if high < math.inf else "") + f", got {value!r}")
+    return v
+
+
+def _check_number(name: str, value: Any, low: float = -math.inf) -> float:
+    """``value`` as a float: a real number (not bool, not a string), finite and >= ``low``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    v = float(value)
+    if not (math.isfinite(v) and v >= low):
+        raise ValueError(f"{name} must be a finite number" + (f" >= {low:g}" if low > -math.inf
+                                                               else "") + f", got {value!r}")
     return v
 
 
@@ -67,7 +92,9 @@ class WheelCore:
         num: batch size N.
         task, action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights:
             as documented on :class:`~wheelgym.envs.wheel_env.WheelEnv`.
-        horizon: episode length in control steps (sizes the track task's reference table).
+        horizon: control steps of the track reference that batches of up to
+            ``TrackTask.whole_up_to`` robots evaluate at each reset (capped at
+            ``TrackTask.max_table``); the reference moves on past it by windows.
         range_backend: ``"analytic"`` (compiled rays) or ``"pymunk"`` (segment queries) for
             the navigate task's range sensor.
     """
@@ -109,17 +136,22 @@ class WheelCore:
         model_kw = {"input_mode": mode} if self.kinematic else {}
         self.model = spec.model_cls(dict(params or {}), **model_kw)
         self.base_params = self.model.params
-        self.dt = _check_dt("ctrl_dt", self.model.default_ctrl_dt if ctrl_dt is None else ctrl_dt)
+        self.dt = _check_dt("ctrl_dt", self.model.default_ctrl_dt if ctrl_dt is None else ctrl_dt,
+                            MAX_CTRL_DT)
         sdt = _check_dt("sim_dt", self.model.default_sim_dt if sim_dt is None else sim_dt)
         if sdt > self.dt:
             raise ValueError(f"sim_dt ({sdt}) must not exceed ctrl_dt ({self.dt})")
+        if self.dt / sdt > MAX_SUBSTEPS + 0.5:
+            raise ValueError(
+                f"ctrl_dt / sim_dt ({self.dt} / {sdt}) must be at most {MAX_SUBSTEPS} RK4 "
+                f"substeps per control step (each costs about 1 us a robot); raise sim_dt"
+            )
         self.n_sub = n_substeps(self.dt, sdt)
         self.h = self.dt / self.n_sub
+        self._stiff_scale: float | None = None
+        self._check_stable(self.base_params, "params")
         self.randomize = self._check_randomize(randomize)
-        obs_noise = float(obs_noise)
-        if not (math.isfinite(obs_noise) and obs_noise >= 0):
-            raise ValueError(f"obs_noise must be a finite number >= 0, got {obs_noise!r}")
-        self.obs_noise = obs_noise
+        self.obs_noise = _check_number("obs_noise", obs_noise, 0.0)
         if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
             raise ValueError(f"horizon must be a positive int, got {horizon!r}")
         self.horizon = int(horizon)
@@ -166,8 +198,6 @@ class WheelCore:
         # physical input bounds per row: low then high (LO, HI are views)
         self.m = m
         self.LH = np.tile(np.concatenate([lo, hi]), (N, 1))
-        self.LO = self.LH[:, :m]
-        self.HI = self.LH[:, m:]
         self.A = np.zeros((N, self.action_dim))  # the normalised actions' shape
         # one float block and one flag block per row (few arrays: each array argument of a
         # compiled call costs ~0.25 us); the named attributes are views into them
@@ -175,21 +205,8 @@ class WheelCore:
         self._lay = lay
         self.B = np.zeros((N, lay["width"]))
         self.F = np.zeros((N, 5), dtype=np.bool_)
-        self.U = self.B[:, lay["U"]]
-        self.jv = self.B[:, lay["jv"]]
-        self.energy = self.B[:, lay["energy"]]
-        self.eff = self.B[:, lay["eff"]]
-        self.pose = self.B[:, lay["pose"]]
-        self.twist = self.B[:, lay["twist"]]
-        self.xf = self.B[:, lay["xf"]]
-        self.reward = self.B[:, lay["reward"]]
-        self.err = self.B[:, lay["err"]]
-        self.feat = self.B[:, lay["feat"]]
-        self.sat = self.F[:, F_SAT]
-        self.ok = self.F[:, F_OK]
-        self.term = self.F[:, F_TERM]
-        self.succ = self.F[:, F_SUCC]
-        self.coll = self.F[:, F_COLL]
+        self.terms = np.zeros((N, len(TASKS[task].columns)))
+        self._bind_views()
         self.ok[:] = True
         self.steps = np.zeros(N, dtype=np.int64)  # control steps since each row's reset
         self.all_rows = np.arange(N, dtype=np.int64)  # every row index (kernels' row lists)
@@ -206,10 +223,37 @@ class WheelCore:
                         else -high).astype(np.float32)
         D = len(self.obs_names)
         self.obs = np.zeros((N, D), dtype=np.float32)
-        self.terms = np.zeros((N, len(self.task.columns)))
         self.rngs: Sequence[np.random.Generator] | None = None
         self._track = isinstance(self.task, TrackTask)
         self._velocity = self.action_mode == "velocity" and not self.kinematic
+
+    # ------------------------------------------------------------------ views and copies
+    #: Attributes that are views into the blocks ``LH``, ``B`` and ``F`` (or hold such views,
+    #: or compiled callables): a copy drops them and rebuilds them on its own blocks.
+    _DERIVED = ("LO", "HI", "U", "jv", "energy", "eff", "pose", "twist", "xf", "reward", "err",
+                "feat", "sat", "ok", "term", "succ", "coll", "info_buffers", "_k_step",
+                "_ctl_kernel", "_ctl_args")
+
+    def _bind_views(self) -> None:
+        """The named views into the blocks (one compiled call writes a whole row)."""
+        m, lay = self.m, self._lay
+        self.LO = self.LH[:, :m]
+        self.HI = self.LH[:, m:]
+        self.U = self.B[:, lay["U"]]
+        self.jv = self.B[:, lay["jv"]]
+        self.energy = self.B[:, lay["energy"]]
+        self.eff = self.B[:, lay["eff"]]
+        self.pose = self.B[:, lay["pose"]]
+        self.twist = self.B[:, lay["twist"]]
+        self.xf = self.B[:, lay["xf"]]
+        self.reward = self.B[:, lay["reward"]]
+        self.err = self.B[:, lay["err"]]
+        self.feat = self.B[:, lay["feat"]]
+        self.sat = self.F[:, F_SAT]
+        self.ok = self.F[:, F_OK]
+        self.term = self.F[:, F_TERM]
+        self.succ = self.F[:, F_SUCC]
+        self.coll = self.F[:, F_COLL]
         self.info_buffers = {
             "pose": self.pose, "twist": self.twist, "motor_torque": self.U,
             "joint_velocity": self.jv, "tracking_error": self.err, "energy": self.energy,
@@ -217,9 +261,27 @@ class WheelCore:
             "ok": self.ok, "terms": self.terms,
         }
 
-    def _bind_controller(self) -> None:
+    def __getstate__(self) -> dict[str, Any]:
+        """State for ``copy.deepcopy`` and ``pickle``: the blocks and buffers, without the
+        views into them (a copy of a view would stop aliasing its block), the compiled
+        callables, or the robot spec (stored by name)."""
+        state = {k: v for k, v in self.__dict__.items() if k not in self._DERIVED}
+        state["spec"] = self.spec.name
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        spec = self.spec = get_spec(state["spec"])
+        self._bind_views()
+        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if self.threaded \
+            else spec.k_env_step
+        if self._velocity:
+            self._bind_controller(buffers=False)
+
+    def _bind_controller(self, buffers: bool = True) -> None:
         """The controller's compiled batch kernel and its arguments (its ``torques`` method
-        without the per-call Python checks, which cost ~20x the kernel at N = 1)."""
+        without the per-call Python checks, which cost ~20x the kernel at N = 1), and (with
+        ``buffers``) its scratch buffers."""
         from wheelgym.control import controllers as C
         from wheelgym.models.caster_agv import CasterAGV
         from wheelgym.models.three_wheel import ThreeWheel
@@ -235,6 +297,8 @@ class WheelCore:
         else:
             self._ctl_kernel = C._k_ss_twist
             self._ctl_args = (ctl._p, ctl._tmax, ctl._frac, g.k_v, g.ctrl_dt)
+        if not buffers:
+            return
         N = self.num
         self._cmd = np.zeros((N, self.action_dim))
         self._tau = np.zeros((N, self.model.input_dim))
@@ -248,7 +312,15 @@ class WheelCore:
         if randomize is None or randomize is False:
             return {}
         if randomize is True:
-            return dict(spec.default_randomize)
+            out = dict(spec.default_randomize)
+            if not out:  # nothing to draw: say so rather than silently randomise nothing
+                raise ValueError(
+                    f"randomize=True: {spec.name} has no parameters to randomise (its model has "
+                    f"no randomize groups); pass randomize=None")
+            if self.kinematic:  # a range that cannot change the motion is refused
+                self.model.check_randomize(out)
+            self._check_randomize_extremes(out)  # the defaults on the given params
+            return out
         if not isinstance(randomize, Mapping):
             raise TypeError(f"randomize must be a dict, True or None, got {randomize!r}")
         out = {}
@@ -272,7 +344,80 @@ class WheelCore:
             if "rel" in kinds and lo <= 0:
                 raise ValueError(f"randomize[{k!r}] relative factors must be > 0, got {v!r}")
             out[k] = (lo, hi)
+        if out and self.kinematic:  # a range that cannot change the motion is refused
+            self.model.check_randomize(out)
+        self._check_randomize_extremes(out)
         return out
+
+    def _params_at(self, values: Mapping[str, float]) -> Any:
+        """The base parameters with each group in ``values`` at that draw (a factor, or the
+        value of an ``"abs"`` group), mapped onto fields as :meth:`_draw_params` does."""
+        base = self.base_params
+        changes: dict[str, Any] = {}
+        for group, f in values.items():
+            for field, kind in self.spec.randomize[group]:
+                changes[field] = f * getattr(base, field) if kind == "rel" else f
+        return base.replace(**changes)
+
+    def _check_randomize_extremes(self, ranges: Mapping[str, tuple[float, float]]) -> None:
+        """Build the parameters at the extremes of the ranges (each group alone at its low and
+        its high, then every group at its low and every group at its high: 2 k + 2 sets for k
+        groups, not all 2^k corners, as a set costs ~1 ms to validate) through the dataclass
+        validation and the stability check, so that a seed cannot draw an invalid set;
+        ``ValueError`` naming the ``randomize`` entry."""
+        groups = [g for g in self.spec.randomize if g in ranges]  # the draws' fixed order
+        if not groups:
+            return
+        # each group alone first (the error then names the one entry at fault)
+        corners = [{g: v} for g in groups for v in ranges[g]]
+        if len(groups) > 1:
+            corners += [{g: ranges[g][end] for g in groups} for end in (0, 1)]
+        for corner in corners:
+            names = ", ".join(f"randomize[{g!r}] = {ranges[g]}" for g in corner)
+            at = ", ".join(f"{g} at {v:g}" for g, v in corner.items())
+            try:
+                params = self._params_at(corner)
+                if self.kinematic:
+                    self.spec.model_cls(params, input_mode=self.action_mode)
+                else:
+                    self._check_stable(params, "params", coarse=True)
+            except (ValueError, TypeError) as exc:
+                raise ValueError(
+                    f"{names}{' together' if len(corner) > 1 else ''} can draw invalid "
+                    f"parameters ({at}): {exc}; narrow the range"
+                ) from None
+
+    def _check_stable(self, params: Any, what: str, coarse: bool = False) -> None:
+        """``ValueError`` when the RK4 substep ``h`` is outside RK4's stability region for
+        ``params``: ``lambda h >= 2.785`` (:data:`RK4_REAL_STABILITY_LIMIT`) for the stiffest
+        mode, the friction at rest (the model's ``stiffness()``, README "Time steps") or, for
+        a caster trail ``d``, the trailing-caster mode ``|v| / d`` (``ThreeWheel``'s
+        docstring) at the speed limit ``v_max``. ``coarse``: fewer steering angles (for the
+        randomisation corners)."""
+        if self.kinematic:
+            return
+        model = self.model if params is self.base_params else self.spec.model_cls(params)
+        if not hasattr(model, "stiffness"):
+            return
+        if coarse and self.spec.name == "ThreeWheel":  # 8 steering configurations (~40x
+            g = (0.0, 0.5 * np.pi)                      # cheaper than the full grid), scaled by
+            psi = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)  # full/coarse
+            if self._stiff_scale is None:                                           # at base
+                self._stiff_scale = self.model.stiffness() / self.model.stiffness(psi)
+            lam = model.stiffness(psi) * self._stiff_scale
+        else:
+            lam = model.stiffness()
+        trail = getattr(params, "d", None)
+        lam_c = self.spec.v_max / trail if trail else 0.0
+        worst = max(lam, lam_c)
+        if not worst * self.h < RK4_REAL_STABILITY_LIMIT:
+            raise ValueError(
+                f"{what}: sim_dt = {self.h:g} s is outside RK4's stability region for these "
+                f"parameters: the stiffest mode (friction at rest {lam:.4g} 1/s"
+                + (f", caster trail v_max / d = {lam_c:.4g} 1/s" if trail else "")
+                + f") times sim_dt is {worst * self.h:.3g} >= {RK4_REAL_STABILITY_LIMIT}; "
+                f"use sim_dt < {RK4_REAL_STABILITY_LIMIT / worst:.3g} s (a divisor of ctrl_dt)"
+            )
 
     # ------------------------------------------------------------------ reset
     def _draw_params(self, i: int, rng: np.random.Generator) -> None:
@@ -296,7 +441,7 @@ class WheelCore:
         if self.kinematic:
             mdl = self.spec.model_cls(params, input_mode=self.action_mode)
             self.P[i] = mdl._p
-            lo, hi = mdl.input_bounds()
+            lo, hi = self.model.action_bounds(mdl)  # the commanding side's scale
         else:
             self.P[i] = params.pack()
             lo, hi = self.spec.input_bounds(params, self.action_mode)
@@ -307,11 +452,18 @@ class WheelCore:
               rngs: Sequence[np.random.Generator], options: dict | None = None) -> np.ndarray:
         """Start new episodes in ``rows`` (all when None) drawing row i from ``rngs[i]``.
 
+        ``options``: the task's reset options (``Task.option_keys``; the env docstring's
+        "Reset Options" table), each one value for every row or an array with a leading axis
+        of N (row i reads entry i; rows not reset ignore theirs). Unknown keys raise
+        ``ValueError`` listing the valid ones. The draws are made as without options (the
+        options replace drawn values), so the generators advance the same either way.
+
         Returns the observation buffer ``(N, obs_dim)``; rows not reset keep their values.
         """
         N = self.num
         if len(rngs) != N:
             raise ValueError(f"rngs must hold {N} generators, got {len(rngs)}")
+        opts = self.task.parse_options(options)  # before any draw: a bad option draws nothing
         self.rngs = rngs
         idx = self.all_rows if rows is None else np.asarray(rows, dtype=np.int64)
         if idx.size == 0:
@@ -319,7 +471,7 @@ class WheelCore:
         if self.randomize:  # (without, every row keeps the base parameters it was built with)
             for i in idx:
                 self._draw_params(int(i), rngs[i])
-        poses = self.task.reset_rows(idx, rngs, options)
+        poses = self.task.reset_rows(idx, rngs, opts)
         if self.randomize:  # the start state may depend on each row's drawn parameters
             for n, i in enumerate(idx):
                 self.X[i] = self.spec.initial_state(poses[n:n + 1], self.params_rows[i])[0]
@@ -362,8 +514,9 @@ class WheelCore:
         """Advance every row one control period.
 
         Args:
-            actions: ``(N, action_dim)`` in [-1, 1] (entries outside are clipped; a
-                non-finite entry raises ``ValueError``).
+            actions: ``(N, action_dim)`` real numbers in [-1, 1] (entries outside are
+                clipped; a non-finite entry raises ``ValueError``, a non-real dtype such as
+                strings, complex or bool ``TypeError``).
             active: optional ``(N,)`` bool mask; rows outside it are integrated all the same
                 but draw no observation noise from their generators. A vector env passes the
                 rows it resets right after this step (next-step autoreset), so each row's
@@ -377,8 +530,12 @@ class WheelCore:
             buffers (the same dict every step).
         """
         a = actions
-        if a.shape != self.A.shape or a.dtype != np.float64:
-            a = np.asarray(actions, dtype=np.float64)
+        if a.shape != self.A.shape or a.dtype != np.float64:  # (float64 of the shape: fast)
+            a = np.asarray(actions)
+            if a.dtype.kind not in "fiu":
+                raise TypeError(f"action must be an array of real numbers (float or int), got "
+                                f"dtype {a.dtype}")
+            a = a.astype(np.float64, copy=False)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
         if self._velocity:

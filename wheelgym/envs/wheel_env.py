@@ -14,6 +14,9 @@ from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 
 __all__ = ["WheelEnv"]
 
+_F32 = np.dtype(np.float32)
+_F64 = np.dtype(np.float64)
+
 _DOC = """
 ## Observation Space
 
@@ -60,13 +63,48 @@ speed, phase, rotation and offset; the robot starts at rest on its first pose. n
 8 m x 8 m walled arena with 3-6 circles and 1-3 boxes, start and goal (>= 3 m apart) clear of
 them, the pymunk space rebuilt at each reset.
 
+## Reset Options
+
+``reset(seed=..., options={...})`` replaces drawn values for that episode (evaluation sets,
+replays). The draws from ``np_random`` are made all the same, so the generator advances as
+without options; unknown keys raise ``ValueError`` listing the valid ones.
+
+| key         | tasks          | value                                                          |
+|-------------|----------------|----------------------------------------------------------------|
+| start       | all            | start pose (x, y, yaw) (m, m, rad); the robot starts at rest   |
+| goal        | goal, navigate | goal pose (x, y, yaw) (navigate ignores the yaw)               |
+| reference   | track          | a ``wheelgym.tasks`` ``Reference`` (``Circle``, ``FigureEight``, |
+|             |                | ``QuinticCircle``, ``Line``, ``PointToPoint``...), followed from |
+|             |                | its t = 0 as placed (no random rotation or offset); the robot   |
+|             |                | starts on its first pose unless ``start`` is given              |
+| layout_seed | navigate       | int >= 0: the obstacle layout (and start, goal) drawn from a    |
+|             |                | generator seeded with it (the layout ``reset(seed=s)`` draws     |
+|             |                | without ``randomize``); ``start``/``goal`` override its poses    |
+
+navigate refuses a ``start`` or ``goal`` whose footprint circle is not inside the walls and
+clear of the obstacles (``ValueError``). In the vector env an option applies to the sub-envs
+being reset: one value for all of them, or an array (a list for ``reference`` and
+``layout_seed``) with a leading axis of ``num_envs`` whose entry i goes to sub-env i (the
+entries of sub-envs not reset are ignored); ``reset_mask`` selects the sub-envs. Options act
+on that reset only (autoresets draw as usual).
+
 ## Episode End
 
 Terminated on success (goal: within 0.1 m and 0.2 rad; navigate: within 0.25 m), overspeed
 (the models have no motor back-EMF, so speed is capped by this sanity limit), lost (track),
-collision (navigate), or a non-finite state (``info["numerical_failure"] = True``; the
-observation then shows the last finite state). Truncated after ``max_episode_steps`` = 500
-control steps (25 s at the default ``ctrl_dt``).
+collision (navigate), or a diverged integration (``info["numerical_failure"] = True``: the
+state turned non-finite or a twist entry exceeded 1e3 m/s or rad/s,
+``robots._body.SPEED_BOUND``; the state, the observation and the reward then stay at the last
+good state's, with the overspeed penalty). Truncated after ``max_episode_steps`` = 500
+control steps (25 s at the default ``ctrl_dt``). The track reference never runs out: it is
+evaluated in windows as the episode goes on (any ``max_episode_steps``, ``None`` included); the
+circle and figure-eight keep lapping, the quintic circle rests at its end pose after its 20-40 s.
+
+Stepping on after a terminated step without ``reset()`` is outside Gymnasium's contract; as
+Gymnasium's own environments do (CartPole), the env warns once, keeps integrating, and returns
+reward 0 (every ``reward_terms`` entry 0) with ``terminated=True`` until ``reset()``, so no
+terminal bonus or penalty is paid twice. The vector env resets a terminated sub-env on its next
+step instead (``NEXT_STEP`` autoreset), so it never pays one twice either.
 
 ## Arguments
 
@@ -75,23 +113,35 @@ control steps (25 s at the default ``ctrl_dt``).
 | task           | "goal"            | "goal", "track" or "navigate"                           |
 | action_mode    | the robot's first | "torque" or "velocity"; kinematic robots: input modes   |
 | params         | None              | dict of overrides (field names of the robot's Params)   |
-| ctrl_dt        | model default     | control period (s), 0.05                                |
-| sim_dt         | model default     | RK4 substep (s); must divide ctrl_dt                    |
+| ctrl_dt        | model default     | control period (s), 0.05; at most 1 s                   |
+| sim_dt         | model default     | RK4 substep (s); divides ctrl_dt in at most 10000 steps |
+|                |                   | and is inside RK4's stability region for the parameters |
 | randomize      | None              | dict group -> range, or True for the robot's defaults   |
-| obs_noise      | 0.0               | std of Gaussian noise on each observation entry         |
-| reward_weights | task defaults     | dict term -> weight                                     |
+| obs_noise      | 0.0               | std of Gaussian noise on each entry (a number >= 0)     |
+| reward_weights | task defaults     | dict term -> weight (finite real numbers)               |
 | render_mode    | None              | "rgb_array" (600 x 600 x 3) or "human"                  |
 | range_backend  | "analytic"        | navigate's rays: "analytic" (compiled) or "pymunk"      |
+| horizon        | 500               | track: steps of the reference the single env evaluates  |
+|                |                   | at a reset (at most 4096; it moves on by windows past)  |
 
 ``randomize`` groups (each robot supports those its parameters have): "mass", "inertia",
 "friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit". A value is a relative
 factor range ``(low, high)`` (or a fraction f meaning ``(1 - f, 1 + f)``) multiplying every
 parameter of the group; ``x_icr`` takes an absolute range (m). ``reset`` returns the draws in
-``info["params"]``. The velocity mode's controller keeps the nominal parameters.
+``info["params"]``. The velocity mode's controller keeps the nominal parameters, and so
+does the scale of the Unicycle's action: in ``WheelSpeedHeadingRate`` it drives at the drawn
+radius times the wheel speed; in ``VehicleSpeedHeadingRate`` the radius acts only through the
+wheel-speed limit, and a range too narrow to reach it raises ``ValueError``.
+
+The parameters at every corner of the ranges (each group at its low or its high end) must be
+valid and stable at ``sim_dt``, else the constructor raises ``ValueError`` naming the
+``randomize`` entry. ``params`` must lie within the physical bounds of the parameter
+dataclasses (``wheelgym.models._base``: lengths 1e-3-1e2 m, masses 1e-3-1e5 kg, ...).
 
 Actions outside [-1, 1] are clipped (``info["saturated"]``); a wrong shape or a non-finite
-entry raises ``ValueError``; invalid keyword values raise ``ValueError``/``TypeError`` naming
-the argument and listing the valid choices.
+entry raises ``ValueError``, an array that is not of real numbers (strings, complex, bool)
+``TypeError``; invalid keyword values raise ``ValueError``/``TypeError`` naming the argument
+and listing the valid choices or range.
 
 ## Info (every step)
 
@@ -106,10 +156,16 @@ the argument and listing the valid choices.
 | internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0)    |
 | saturated         | bool       | an action or a controller torque was clipped                 |
 | is_success        | bool       | goal reached; track: within 5 cm of the reference            |
-| numerical_failure | bool       | the state turned non-finite (the episode ends)               |
+| numerical_failure | bool       | the integration diverged (the episode ends; Episode End)     |
 | reward_terms      | dict       | weighted reward terms                                        |
 
 Reset info adds ``params`` (drawn values) and ``task`` (goal pose or reference kind).
+
+## Copies
+
+``copy.deepcopy(env)`` and ``pickle`` copy an episode in progress exactly: the copy and the
+original, fed the same actions, return the same bits (planning over copies, checkpoints). A
+renderer is not copied (a copy opens its own on ``render()``).
 
 ## Version History
 
@@ -162,13 +218,26 @@ class WheelEnv(gym.Env):
         self._shape = (c.action_dim,)
         self._renderer = None
         self._started = False
+        self._ended = False  # the episode terminated (steps pay 0 until reset())
+        self._warned_ended = False
+
+    # ------------------------------------------------------------------ copies
+    def __getstate__(self) -> dict[str, Any]:
+        """``copy.deepcopy`` and ``pickle`` copy the episode exactly (the core, the task, the
+        generator); the renderer (a window, fonts) is left out and rebuilt on demand."""
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode; ``options`` as in the "Reset Options" table (unknown keys raise
+        ``ValueError`` listing the valid ones)."""
         super().reset(seed=seed)
         c = self.core
         obs = c.reset(None, [self.np_random], options)[0].copy()
         self._started = True
+        self._ended = False
         info = self._info(True)
         info["params"] = dict(c.drawn[0])
         info["task"] = self._task_info()
@@ -182,14 +251,29 @@ class WheelEnv(gym.Env):
         if not self._started:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(action)
+        dt = a.dtype
+        if dt is not _F32 and dt is not _F64 and dt.kind not in "fiu":
+            raise TypeError(f"action must be an array of real numbers (float or int), got "
+                            f"dtype {dt}")
         if a.shape != self._shape:
             raise ValueError(f"action must have shape {self._shape}, got {np.shape(action)}")
         self._A[0] = a
         obs, reward, term, _ = self.core.step(self._A)
         info = self._info(False)
+        if self._ended:  # beyond the end (class docstring): reward 0, still terminated
+            if not self._warned_ended:
+                gym.logger.warn(
+                    "step() called after the episode terminated; call reset() first. Steps "
+                    "until reset() return reward 0 and terminated=True")
+                self._warned_ended = True
+            info["reward_terms"] = dict.fromkeys(self._names, 0.0)
+            r, t = 0.0, True
+        else:
+            r, t = reward.item(0), term.item(0)
+            self._ended = t
         if self.render_mode == "human":
             self.render()
-        return obs[0].copy(), reward.item(0), term.item(0), False, info
+        return obs[0].copy(), r, t, False, info
 
     def _info(self, at_reset: bool) -> dict[str, Any]:
         c = self.core

@@ -25,7 +25,36 @@ import numpy as np
 from wheelgym import integrators as _itg
 from wheelgym.integrators import check_substeps
 
-__all__ = ["Params", "Model", "PARALLEL_MIN_BATCH"]
+__all__ = ["Params", "Model", "PARALLEL_MIN_BATCH", "LENGTH", "SIGNED_LENGTH", "MASS",
+           "INERTIA", "TORQUE", "GRAVITY", "SMOOTHING", "COEFFICIENT", "DAMPING", "SPEED",
+           "RATE"]
+
+# Physical bounds of the parameters (closed intervals; ``Params._bounds`` maps a field to one,
+# applied to every entry of a tuple field). Wide enough for any wheeled robot from a toy to a
+# truck, narrow enough that no accepted value overflows or underflows the dynamics (a radius
+# of 1e30 m or a wheelbase of 1e-30 m gave infinite observations).
+#: Lengths (m): 1 mm to 100 m.
+LENGTH = (1e-3, 1e2, "m")
+#: Signed positions in the body frame (m).
+SIGNED_LENGTH = (-1e2, 1e2, "m")
+#: Masses (kg): 1 g to 100 t.
+MASS = (1e-3, 1e5, "kg")
+#: Moments of inertia (kg m²): a 1 g, 1 mm wheel to a 100 t, 10 m body.
+INERTIA = (1e-9, 1e7, "kg m²")
+#: Motor torque limits (N·m).
+TORQUE = (1e-3, 1e4, "N·m")
+#: Gravity (m/s²): a small moon to 10 g.
+GRAVITY = (0.1, 1e2, "m/s²")
+#: Arctan smoothing gain of the friction sign (s/m).
+SMOOTHING = (1e-2, 1e5, "s/m")
+#: Dimensionless friction coefficients.
+COEFFICIENT = (0.0, 10.0, "-")
+#: Viscous joint friction (N·m·s/rad).
+DAMPING = (0.0, 1e3, "N·m·s/rad")
+#: Speed limits (m/s).
+SPEED = (-1e2, 1e2, "m/s")
+#: Angular-rate limits (rad/s).
+RATE = (-1e4, 1e4, "rad/s")
 
 #: Batches at least this large use the multi-threaded kernel.
 PARALLEL_MIN_BATCH = 512
@@ -36,13 +65,16 @@ class Params:
     """Base of the frozen parameter dataclasses.
 
     Subclasses list field names in ``_positive`` (must be > 0) and ``_nonnegative`` (>= 0);
-    every numeric field must be finite. Subclasses add their own checks in ``_check``.
+    every numeric field must be finite and, where ``_bounds`` names it, within its physical
+    bounds (``(low, high, unit)``, e.g. :data:`LENGTH`; every entry of a tuple field).
+    Subclasses add their own checks in ``_check``.
     Construction with an unknown keyword raises ``TypeError`` (a dataclass does that itself;
     :meth:`from_dict` and :meth:`replace` also list the valid names).
     """
 
     _positive: ClassVar[tuple[str, ...]] = ()
     _nonnegative: ClassVar[tuple[str, ...]] = ()
+    _bounds: ClassVar[Mapping[str, tuple[float, float, str]]] = {}
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -63,6 +95,18 @@ class Params:
             if not getattr(self, name) >= 0:
                 raise ValueError(
                     f"{type(self).__name__}.{name} must be >= 0, got {getattr(self, name)!r}"
+                )
+        for name, (lo, hi, unit) in self._bounds.items():
+            value = getattr(self, name)
+            if isinstance(value, (float, int)):  # (the common case, without NumPy: resets
+                ok = lo <= value <= hi           # with randomize build a set per draw)
+            else:
+                arr = np.asarray(value, dtype=np.float64)
+                ok = bool(np.all(arr >= lo) and np.all(arr <= hi))
+            if not ok:
+                raise ValueError(
+                    f"{type(self).__name__}.{name} must be within the physical bounds "
+                    f"[{lo:g}, {hi:g}] {unit}, got {value!r}"
                 )
         self._check()
 

@@ -63,7 +63,19 @@ from wheelgym.integrators import (
     rk4_inplace,
 )
 from wheelgym.models import friction as _friction
-from wheelgym.models._base import Model, Params
+from wheelgym.models._base import (
+    COEFFICIENT,
+    DAMPING,
+    GRAVITY,
+    INERTIA,
+    LENGTH,
+    MASS,
+    SIGNED_LENGTH,
+    SMOOTHING,
+    TORQUE,
+    Model,
+    Params,
+)
 from wheelgym.models.friction import sgn_s
 
 # kernels here inline integrators.rk4_inplace and friction.sgn_s
@@ -146,6 +158,14 @@ class CasterAGVParams(Params):
         "I_cz", "rho", "k_s", "g", "tau_max",
     )
     _nonnegative: ClassVar[tuple[str, ...]] = ("mu_r", "mu_p", "b_drive", "b_caster")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "m_b": MASS, "m_w": MASS, "m_c": MASS, "I_b": INERTIA, "I_wy": INERTIA,
+        "I_wz": INERTIA, "I_cy": INERTIA, "I_cz": INERTIA, "x_G": SIGNED_LENGTH, "r": LENGTH,
+        "track_width": LENGTH, "caster_axis": SIGNED_LENGTH, "d": LENGTH, "r_c": LENGTH,
+        "mu_r": COEFFICIENT, "mu_p": (0.0, LENGTH[1], "m"), "rho": LENGTH,
+        "b_drive": DAMPING, "b_caster": DAMPING, "k_s": SMOOTHING, "g": GRAVITY,
+        "tau_max": TORQUE,
+    }
 
     def _check(self) -> None:
         a = np.asarray(self.caster_axis, dtype=np.float64)

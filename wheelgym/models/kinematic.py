@@ -46,7 +46,7 @@ from wheelgym.integrators import (
     finite_status,
     rk4_inplace,
 )
-from wheelgym.models._base import Model, Params
+from wheelgym.models._base import LENGTH, RATE, SPEED, Model, Params
 
 # kernels here inline integrators.rk4_inplace
 _numba_cache.guard(__file__, _integrators.__file__)
@@ -137,6 +137,10 @@ class UnicycleParams(Params):
     max_heading_rate: float = 2.0
 
     _positive: ClassVar[tuple[str, ...]] = ("wheel_radius", "max_heading_rate")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "wheel_radius": LENGTH, "speed_range": SPEED, "wheel_speed_range": RATE,
+        "max_heading_rate": RATE,
+    }
     _kind: ClassVar[int] = _K_UNI
 
     def _check(self) -> None:
@@ -168,6 +172,9 @@ class BicycleParams(Params):
     max_steering_angle: float = math.radians(30.0)
 
     _positive: ClassVar[tuple[str, ...]] = ("wheelbase", "max_steering_angle")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "wheelbase": LENGTH, "speed_range": SPEED,
+    }
     _kind: ClassVar[int] = _K_BIC
 
     def _check(self) -> None:
@@ -201,6 +208,10 @@ class DifferentialDriveParams(Params):
     wheel_speed_range: tuple[float, float] = (-12.0, 12.0)
 
     _positive: ClassVar[tuple[str, ...]] = ("wheel_radius", "track_width")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "wheel_radius": LENGTH, "track_width": LENGTH, "speed_range": SPEED,
+        "wheel_speed_range": RATE,
+    }
     _kind: ClassVar[int] = _K_DD
 
     def _check(self) -> None:
@@ -239,6 +250,10 @@ class AckermannParams(Params):
     _positive: ClassVar[tuple[str, ...]] = (
         "wheelbase", "track_width", "max_steering_angle", "max_steering_rate"
     )
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "wheelbase": LENGTH, "track_width": LENGTH, "speed_range": SPEED,
+        "max_steering_rate": RATE,
+    }
     _kind: ClassVar[int] = _K_ACK
 
     def _check(self) -> None:
@@ -453,6 +468,18 @@ class KinematicModel(Model):
         """Lower input bounds of the current mode (see :meth:`input_bounds`)."""
         return self.input_bounds()[0]
 
+    def action_bounds(self, actual: KinematicModel) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds an environment scales its actions onto when this is the nominal model and
+        ``actual`` the robot drawn by domain randomisation (same class and mode).
+
+        The actual model's :meth:`input_bounds` by default; :class:`Unicycle` keeps its own
+        (the command's scale is fixed, the drawn wheel radius acts on the motion)."""
+        return actual.input_bounds()
+
+    def check_randomize(self, ranges: dict[str, tuple[float, float]]) -> None:
+        """Raise ``ValueError`` for randomisation ranges (group -> factor range) that cannot
+        change this model's motion in its input mode; nothing by default."""
+
     def validation_state(self) -> np.ndarray:
         """A generic start state inside every limit (for :mod:`wheelgym.validate`)."""
         x = np.zeros(self.state_dim)
@@ -474,6 +501,17 @@ class Unicycle(KinematicModel):
 
     ``xdot = v cos(yaw)``, ``ydot = v sin(yaw)``, ``yawdot = w`` with ``v = r phidot``.
     Saturation: module docstring. Default mode ``WheelSpeedHeadingRate`` (as the reference).
+
+    The two modes differ in what the wheel radius does (the reference's equations): a wheel
+    speed command ``phidot`` moves the robot at ``v = r phidot``, so the speed follows the
+    actual radius; a vehicle speed command ``v`` is the speed, and the radius acts only
+    through the wheel-speed limit (``|v| <= r max|phidot|``). At the nominal radius the same
+    speed is one motion in both. In an environment with ``randomize`` (wheel_radius), the
+    action keeps the nominal model's scale (:meth:`action_bounds`; the commanding side does
+    not know the drawn radius): ``WheelSpeedHeadingRate`` then drives at ``r' phidot``, and
+    ``VehicleSpeedHeadingRate`` is changed only by radii small enough for the wheel-speed
+    limit to cut the commanded speed (a range that cannot reach it is refused,
+    :meth:`check_randomize`).
     """
 
     params_type = UnicycleParams
@@ -492,6 +530,36 @@ class Unicycle(KinematicModel):
         if self.input_mode == "WheelSpeedHeadingRate":
             return (vlo / r, -wm), (vhi / r, wm)
         return (vlo, -wm), (vhi, wm)
+
+    def action_bounds(self, actual: KinematicModel) -> tuple[np.ndarray, np.ndarray]:
+        """The nominal bounds: a wheel-speed (or vehicle-speed) command keeps its scale and
+        the drawn radius acts on the motion (class docstring)."""
+        return self.input_bounds()
+
+    def check_randomize(self, ranges: dict[str, tuple[float, float]]) -> None:
+        """In ``VehicleSpeedHeadingRate`` a wheel-radius factor range whose smallest radius
+        still reaches every commanded speed (``f r wheel_speed_range`` covers the speed
+        bounds) cannot change the motion: ``ValueError`` saying so."""
+        if self.input_mode != "VehicleSpeedHeadingRate" or "wheel_radius" not in ranges:
+            return
+        p = self.params
+        (vlo, _), (vhi, _) = self._bounds()
+        wslo, wshi = p.wheel_speed_range
+        # the limit cuts a commanded speed when f r wshi < vhi or f r wslo > vlo
+        cuts = [vhi / (p.wheel_radius * wshi)] if wshi > 0 and vhi > 0 else []
+        if wslo < 0 and vlo < 0:
+            cuts.append(vlo / (p.wheel_radius * wslo))
+        f_cut = max(cuts, default=0.0)
+        lo, hi = ranges["wheel_radius"]
+        if not lo < f_cut:
+            raise ValueError(
+                f"randomize['wheel_radius'] = ({lo:g}, {hi:g}) cannot change the motion of a "
+                f"Unicycle in action_mode 'VehicleSpeedHeadingRate': the vehicle speed is "
+                f"commanded, so the wheel radius acts only through the wheel-speed limit, "
+                f"which cuts no commanded speed for factors >= {f_cut:.4g}; use action_mode "
+                f"'WheelSpeedHeadingRate' (speed = radius x wheel speed) or a low factor below "
+                f"{f_cut:.4g}"
+            )
 
 
 class Bicycle(KinematicModel):

@@ -31,7 +31,18 @@ from wheelgym.integrators import (
     rk4_rows,
 )
 from wheelgym.models import friction as _friction
-from wheelgym.models._base import Model, Params
+from wheelgym.models._base import (
+    COEFFICIENT,
+    GRAVITY,
+    INERTIA,
+    LENGTH,
+    MASS,
+    SIGNED_LENGTH,
+    SMOOTHING,
+    TORQUE,
+    Model,
+    Params,
+)
 from wheelgym.models.friction import sgn_s, sincos
 
 # kernels here inline integrators.rk4_inplace, integrators.rk4_block and friction.sgn_s
@@ -79,6 +90,11 @@ class SkidSteerParams(Params):
 
     _positive: ClassVar[tuple[str, ...]] = ("m", "I", "a", "b", "c", "r", "k_s", "g", "tau_max")
     _nonnegative: ClassVar[tuple[str, ...]] = ("mu_s", "mu_l")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "m": MASS, "I": INERTIA, "a": LENGTH, "b": LENGTH, "c": LENGTH, "r": LENGTH,
+        "x_icr": SIGNED_LENGTH, "mu_s": COEFFICIENT, "mu_l": COEFFICIENT, "k_s": SMOOTHING,
+        "g": GRAVITY, "tau_max": TORQUE,
+    }
 
     def _check(self) -> None:
         if not -self.a < self.x_icr < self.b:

@@ -41,7 +41,19 @@ from wheelgym.integrators import (
 )
 from wheelgym.integrators import fma as _fma
 from wheelgym.models import friction as _friction
-from wheelgym.models._base import Model, Params
+from wheelgym.models._base import (
+    COEFFICIENT,
+    DAMPING,
+    GRAVITY,
+    INERTIA,
+    LENGTH,
+    MASS,
+    SIGNED_LENGTH,
+    SMOOTHING,
+    TORQUE,
+    Model,
+    Params,
+)
 
 # kernels here inline integrators.rk4_inplace and integrators.rk4_block
 _numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
@@ -117,6 +129,12 @@ class ThreeWheelParams(Params):
         "tau_drive_max", "tau_steer_max",
     )
     _nonnegative: ClassVar[tuple[str, ...]] = ("mu_r", "mu_p", "b_drive", "b_steer")
+    _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "m_b": MASS, "m_w": MASS, "I_b": INERTIA, "I_wy": INERTIA, "I_wz": INERTIA,
+        "r": LENGTH, "d": LENGTH, "axes": SIGNED_LENGTH, "mu_r": COEFFICIENT,
+        "mu_p": (0.0, LENGTH[1], "m"), "rho": LENGTH, "b_drive": DAMPING, "b_steer": DAMPING,
+        "k_s": SMOOTHING, "g": GRAVITY, "tau_drive_max": TORQUE, "tau_steer_max": TORQUE,
+    }
 
     def _check(self) -> None:
         a = np.asarray(self.axes, dtype=np.float64)

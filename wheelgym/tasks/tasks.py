@@ -7,6 +7,7 @@ episode only from ``rngs[i]``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -14,7 +15,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
-from wheelgym.tasks.references import Circle, FigureEight, QuinticCircle, evaluate_batch
+from wheelgym.tasks.references import (
+    Circle,
+    FigureEight,
+    QuinticCircle,
+    Reference,
+    evaluate_batch,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from wheelgym.envs.core import WheelCore
@@ -24,6 +31,36 @@ __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]
 #: Bound of positions in the observation (m).
 POS_CLIP = 12.0
 _TWO_PI = math.pi - -math.pi  # the scale numpy's uniform(-pi, pi) uses
+#: Step index standing for "no last step" (the track reference moves on forever).
+_NO_END = np.iinfo(np.int64).max // 4
+
+
+def _pose_option(key: str, value: Any, n: int) -> np.ndarray:
+    """A pose option ``(x, y, yaw)``, one for all rows or ``(n, 3)``, as ``(n, 3)``."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"options[{key!r}] must be a pose (x, y, yaw) of numbers, "
+                        f"got {value!r}") from None
+    if a.shape == (3,):
+        a = np.broadcast_to(a, (n, 3))
+    elif a.shape != (n, 3):
+        raise ValueError(f"options[{key!r}] must be a pose (x, y, yaw) of shape (3,), or one "
+                         f"per sub-env of shape ({n}, 3); got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"options[{key!r}] must be finite, got {value!r}")
+    return a
+
+
+def _per_row(key: str, value: Any, n: int, one, what: str) -> list[Any]:
+    """A scalar-like option (``one(v)`` validates and converts one value), one for all rows
+    or a sequence of ``n``, as a list of ``n``."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        if len(value) != n:
+            raise ValueError(f"options[{key!r}] as a sequence must hold one {what} per "
+                             f"sub-env ({n}), got {len(value)}")
+        return [one(v) for v in value]
+    return [one(value)] * n
 
 
 class Task:
@@ -45,6 +82,8 @@ class Task:
                     f"unknown reward_weights key {k!r} for task {self.name!r} on {spec.name}; "
                     f"valid keys: {list(names)}"
                 )
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise TypeError(f"reward_weights[{k!r}] must be a real number, got {v!r}")
             v = float(v)
             if not math.isfinite(v):
                 raise ValueError(f"reward_weights[{k!r}] must be finite, got {v!r}")
@@ -66,8 +105,43 @@ class Task:
     def obs_layout(self) -> tuple[list[str], np.ndarray]:
         raise NotImplementedError
 
-    def reset_rows(self, idx: Sequence[int], rngs, options: dict | None) -> np.ndarray:
+    #: Keys of ``reset(options=...)`` (the env docstring's "Reset Options" table).
+    option_keys: ClassVar[tuple[str, ...]] = ()
+
+    def parse_options(self, options: Mapping[str, Any] | None) -> dict[str, Any]:
+        """Validate ``options`` (``ValueError`` naming unknown keys and the valid ones) and
+        return each given one per row (entry i for row i; ``None`` values are left out)."""
+        if options is None:
+            return {}
+        if not isinstance(options, Mapping):
+            raise TypeError(f"options must be a dict, got {type(options).__name__}")
+        unknown = [k for k in options if k not in self.option_keys]
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown} for task {self.name!r}; "
+                             f"valid options: {list(self.option_keys)}")
+        n = self.core.num
+        out: dict[str, Any] = {}
+        for k, v in options.items():
+            if v is not None:
+                out[k] = self._parse_option(k, v, n)
+        return out
+
+    def _parse_option(self, key: str, value: Any, n: int) -> Any:
+        return _pose_option(key, value, n)  # start, goal
+
+    def reset_rows(self, idx: Sequence[int], rngs, options: dict[str, Any]) -> np.ndarray:
+        """Draw the episodes of rows ``idx`` (row i from ``rngs[i]``), apply the parsed
+        ``options`` and return the start poses ``(len(idx), 3)``."""
         raise NotImplementedError
+
+    #: Attributes rebuilt after a copy (compiled callables).
+    _derived: ClassVar[tuple[str, ...]] = ()
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._derived}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
         """Observation, reward terms, end and success of ``rows`` (all when None) from the
@@ -99,7 +173,15 @@ class GoalTask(Task):
         self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
                              POS_CLIP, core.vclip, core.wclip])
         # the whole batch over numba's threads where the core uses them (same bits per row)
+        self._threaded = core.threaded
         self._k_all = k_goal_par if core.threaded else k_goal
+
+    option_keys = ("start", "goal")
+    _derived = ("_k_all",)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        super().__setstate__(state)
+        self._k_all = k_goal_par if self._threaded else k_goal
 
     def term_names(self, spec) -> tuple[str, ...]:
         return tuple(n for n in super().term_names(spec) if n != "collision")
@@ -119,6 +201,15 @@ class GoalTask(Task):
         poses = np.empty((rows.size, 3))
         k_goal_reset(rows, U, float(self.goal_dist[0]), float(self.goal_dist[1]), _TWO_PI,
                      self.goal, self.prev, poses)
+        if options:  # replace the drawn start or goal
+            start, goal = options.get("start"), options.get("goal")
+            for n, i in enumerate(rows.tolist()):
+                if start is not None:
+                    poses[n] = start[i]
+                if goal is not None:
+                    self.goal[i] = goal[i]
+                self.prev[i] = math.hypot(self.goal[i, 0] - poses[n, 0],
+                                          self.goal[i, 1] - poses[n, 1])
         return poses
 
     def evaluate(self, rows: np.ndarray | None = None) -> None:
@@ -161,8 +252,37 @@ class NavigateTask(GoalTask):
         self.spaces: list[Any] = [None] * N
         self.worlds: list[Any] = [None] * N
 
+    option_keys = ("start", "goal", "layout_seed")
+
     def term_names(self, spec) -> tuple[str, ...]:
         return Task.term_names(self, spec)
+
+    def _parse_option(self, key: str, value: Any, n: int) -> Any:
+        if key != "layout_seed":
+            return super()._parse_option(key, value, n)
+
+        def seed(v: Any) -> int:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) \
+                    or v < 0:
+                raise ValueError(f"options['layout_seed'] must be an int >= 0 (or one per "
+                                 f"sub-env), got {v!r}")
+            return int(v)
+
+        return _per_row(key, value, n, seed, "int seed")
+
+    def _check_clear(self, key: str, world: Any, pose: np.ndarray) -> None:
+        """``ValueError`` unless the robot's circle at ``pose`` is free of the layout."""
+        from wheelgym.world import k_clearance
+
+        clear = np.empty(1)
+        k_clearance(pose[None, :2], world.circles[None], np.array([len(world.circles)]),
+                    world.segments[None], np.array([len(world.segments)]), clear)
+        lim = self.arena.half_size
+        r = self.core.spec.radius
+        if not (clear[0] >= r and abs(pose[0]) < lim and abs(pose[1]) < lim):
+            raise ValueError(f"options[{key!r}] = {pose.tolist()} is not free: the robot's "
+                             f"circle (radius {r} m) must lie inside the walls (+-{lim} m) "
+                             f"and clear of the obstacles (clearance {clear[0]:.3g} m)")
 
     def obs_layout(self):
         names, high = super().obs_layout()
@@ -179,8 +299,19 @@ class NavigateTask(GoalTask):
         from wheelgym.world import build_space
 
         poses = np.zeros((len(idx), 3))
+        seeds, start, goal = (options.get(k) for k in ("layout_seed", "start", "goal"))
+        radius = self.core.spec.radius
         for n, i in enumerate(idx):
-            w = self.arena.generate(rngs[i], self.core.spec.radius)
+            w = self.arena.generate(rngs[i], radius)
+            if seeds is not None:  # the layout of that seed (rngs[i] advanced all the same)
+                w = self.arena.generate(np.random.default_rng(seeds[i]), radius)
+            if start is not None or goal is not None:
+                w = dataclasses.replace(
+                    w, start=w.start if start is None else np.array(start[i]),
+                    goal=w.goal if goal is None else np.array(goal[i]))
+                for key, pose in (("start", start), ("goal", goal)):
+                    if pose is not None:
+                        self._check_clear(key, w, pose[i])
             self.worlds[i] = w
             self.nc[i] = len(w.circles)
             self.circles[i, : self.nc[i]] = w.circles
@@ -233,15 +364,22 @@ class NavigateTask(GoalTask):
 class TrackTask(Task):
     """Follow a reference trajectory (circle, figure-eight or the paper's quintic circle).
 
-    In a batch of more than ``whole_up_to`` robots each row holds its reference object and a
-    window of ``window`` control steps of it (pose, body twist, twist rate); the window moves
-    on when a preview would leave it, and all due rows of one reference class are evaluated
-    in one NumPy pass (:func:`~wheelgym.tasks.references.evaluate_batch`), so memory per row
-    is fixed (about 4.6 KB at ``window = 64``) whatever the episode length. Smaller batches
-    (the single env) hold the whole reference, evaluated once an episode (a moving window
-    costs it ~4 us a step). Both hold the same values (element-wise evaluation). The
-    reference is evaluated up to step ``L - 1 = horizon + preview_steps[-1] + 1`` and holds
-    its last point after.
+    Each row holds its reference object and a window of its control steps (pose, body twist,
+    twist rate); the window moves on when a preview would leave it, and all due rows of one
+    reference class are evaluated in one NumPy pass
+    (:func:`~wheelgym.tasks.references.evaluate_batch`), so memory per row is fixed whatever
+    the episode length, and the reference never runs out (any ``max_episode_steps``, ``None``
+    included): the circle and the figure-eight go on lapping, the quintic circle rests at its
+    end pose after its ``duration`` (its rest-to-rest time law). A batch of more than
+    ``whole_up_to`` robots keeps ``window`` steps a row (about 4.6 KB at 64); smaller batches
+    (the single env) keep ``horizon + preview_steps[-1] + 2`` steps (the core's ``horizon``,
+    at most ``max_table``), evaluated at the reset and then once per that many steps (a
+    short window costs the single env ~4 us a step). All hold the same values
+    (element-wise evaluation).
+
+    Reset options: ``reference`` (a :class:`~wheelgym.tasks.references.Reference`, followed
+    from its time 0 as placed, no random rotation or offset) and ``start`` (the robot's start
+    pose instead of the reference's first pose).
     """
 
     name = "track"
@@ -257,18 +395,24 @@ class TrackTask(Task):
     references = ("circle", "figure_eight", "quintic_circle")
     #: Control steps of the reference held per row in a batch.
     window = 64
-    #: Batches of up to this many robots hold the whole reference instead.
+    #: Batches of up to this many robots keep ``horizon`` steps (+ the previews) instead.
     whole_up_to = 8
+    #: Most steps of that table (a larger ``horizon`` is capped: memory and reset work).
+    max_table = 4096
+    option_keys = ("start", "reference")
 
     def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
         N = core.num
         # steps ahead of the current one that are read: the previews and the baseline's k + 1
         self.ahead = int(self.preview_steps[-1]) + 1
-        self.L = core.horizon + self.ahead + 1
+        # the kernels' "last step" (they hold it after): none, the windows move on forever
+        self.L = _NO_END
+        #: Steps the render's path shows (the first table's span).
+        self.span = min(core.horizon, self.max_table) + self.ahead + 1
         # window length (steps): a batch keeps ``window`` steps a row; a few robots (the
-        # single env) keep the whole reference, evaluated once an episode (same values)
-        self.nw = self.L if N <= self.whole_up_to else min(self.window, self.L)
+        # single env) keep ``span`` steps, evaluated at the reset (same values)
+        self.nw = self.span if N <= self.whole_up_to else min(self.window, self.span)
         self.ref = np.zeros((N, self.nw, 6))
         self.ref_rate = np.zeros((N, self.nw, 3))
         self.kstep = np.zeros(N, dtype=np.int64)
@@ -310,13 +454,30 @@ class TrackTask(Task):
             t0 = 0.0
         return kind, ref, t0
 
+    def _parse_option(self, key: str, value: Any, n: int) -> Any:
+        if key != "reference":
+            return super()._parse_option(key, value, n)
+
+        def one(v: Any) -> Reference:
+            if not isinstance(v, Reference):
+                raise TypeError(f"options['reference'] must be a wheelgym.tasks.Reference "
+                                f"(Circle, FigureEight, QuinticCircle, Line, PointToPoint...) "
+                                f"or one per sub-env, got {type(v).__name__}")
+            return v
+
+        return _per_row(key, value, n, one, "Reference")
+
     def reset_rows(self, idx, rngs, options):
+        given, start = options.get("reference"), options.get("start")
         for i in idx:
             rng = rngs[i]
             kind, ref, t0 = self._draw_reference(rng)
             # random rigid placement: rotate by th about the origin, then shift by (ox, oy)
             th = rng.uniform(-math.pi, math.pi)
             ox, oy = rng.uniform(-1.0, 1.0, 2)
+            if given is not None:  # the given reference as placed (the draws made all the same)
+                ref, kind, t0 = given[i], type(given[i]).__name__, 0.0
+                th = ox = oy = 0.0
             self.place[i] = (math.cos(th), math.sin(th), ox, oy, th)
             self.objs[i] = ref
             self.kind[i] = kind
@@ -326,7 +487,10 @@ class TrackTask(Task):
         self.kbase[idx] = 0
         self._fill(idx)
         self._update_slack()
-        return self.ref[idx, 0, :3].copy()
+        poses = self.ref[idx, 0, :3].copy()
+        if start is not None:
+            poses[:] = start[idx]
+        return poses
 
     def _fill(self, rows: np.ndarray) -> None:
         """Evaluate the windows of ``rows`` from their ``kbase`` on (one pass per class)."""
@@ -391,9 +555,10 @@ class TrackTask(Task):
         return self.ref[self.core.all_rows, self._column(ahead)]
 
     def path(self, i: int, stride: int = 1) -> np.ndarray:
-        """Row ``i``'s whole reference path ``(n, 2)`` (m) from step 0 to ``L - 1``, every
-        ``stride`` steps (for drawing; evaluated on demand)."""
-        k = np.arange(0, self.L, stride)
+        """Row ``i``'s reference path ``(n, 2)`` (m) from step 0 to ``span - 1`` or its
+        current preview, whichever is later, every ``stride`` steps (for drawing; evaluated
+        on demand)."""
+        k = np.arange(0, max(self.span, int(self.kstep[i]) + self.ahead + 1), stride)
         pose = evaluate_batch([self.objs[i]], k[None] * self.core.dt + self.t0[i])[0][0]
         c, s, ox, oy, _ = self.place[i]
         return np.stack([c * pose[:, 0] - s * pose[:, 1] + ox,

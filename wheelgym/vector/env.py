@@ -29,8 +29,10 @@ info
     each step's arrays are new (keep or change them freely), the float entries column views of
     one copy of the core's buffers (not C-contiguous: ``np.ascontiguousarray`` if needed).
 actions
-    ``(N, action_dim)``; entries outside [-1, 1] are clipped; a wrong shape or a non-finite
-    entry (in a sub-env that steps) raises ``ValueError``.
+    ``(N, action_dim)`` real numbers; entries outside [-1, 1] are clipped; a wrong shape or a
+    non-finite entry (in a sub-env that steps) raises ``ValueError``, a dtype other than float
+    or int (strings, complex, bool) ``TypeError``. A sub-env that terminated is reset on the
+    next step (``NEXT_STEP``) instead of stepping, so no terminal bonus is paid twice.
 render
     ``render_mode="rgb_array"``: ``render()`` returns sub-env 0's frame ``(600, 600, 3)`` uint8,
     or a grid of the first ``render_envs`` sub-envs.
@@ -216,12 +218,22 @@ class WheelVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset the sub-envs (all, or those in ``options["reset_mask"]``).
 
+        The other ``options`` are the single env's (its "Reset Options" table) and apply to
+        the sub-envs reset: one value for all, or an array (a list for ``reference`` and
+        ``layout_seed``) with a leading axis of ``num_envs`` (entry i for sub-env i; the
+        entries of the others are ignored). Unknown keys raise ``ValueError``.
+
         Returns:
             ``obs (N, obs_dim) float32`` and the batched reset info.
         """
         N = self.num_envs
         seeds = self._seed_list(seed)
         options = dict(options) if options else {}
+        valid = ["reset_mask", *self.core.task.option_keys]
+        unknown = [k for k in options if k not in valid]
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown} for task {self.task!r}; "
+                             f"valid options: {valid}")
         mask = options.pop("reset_mask", None)
         if mask is None:
             mask = np.ones(N, dtype=np.bool_)
@@ -260,6 +272,13 @@ class WheelVectorEnv(VectorEnv):
                 if self._started[i] and i in rows:
                     r.reset()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """``copy.deepcopy``/``pickle`` copy every sub-env's episode exactly; renderers are
+        left out (rebuilt on demand)."""
+        state = self.__dict__.copy()
+        state["_renderers"] = None
+        return state
+
     # ------------------------------------------------------------------ step
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                  np.ndarray, dict[str, Any]]:
@@ -273,7 +292,13 @@ class WheelVectorEnv(VectorEnv):
         N = self.num_envs
         if not self._ready:
             raise RuntimeError("call reset() (on every sub-env) before step()")
-        a = np.asarray(actions, dtype=np.float64)
+        a = actions
+        if type(a) is not np.ndarray or a.dtype != np.float64:  # (float64 arrays: fast)
+            a = np.asarray(actions)
+            if a.dtype.kind not in "fiu":
+                raise TypeError(f"actions must be an array of real numbers (float or int), "
+                                f"got dtype {a.dtype}")
+            a = a.astype(np.float64, copy=False)
         if a.shape != c.A.shape:
             raise ValueError(f"actions must have shape {c.A.shape}, got {np.shape(actions)}")
         mode = self.autoreset_mode

@@ -17,13 +17,21 @@ from numba import njit, prange
 from wheelgym.integrators import LANES, rk4_power
 
 __all__ = ["env_step_body", "env_step_body_par", "env_step_row", "env_step_block",
-           "env_step_blocks", "env_step_blocks_par", "PAR_MIN_ROWS"]
+           "env_step_blocks", "env_step_blocks_par", "PAR_MIN_ROWS", "SPEED_BOUND"]
 
 #: Batch size from which the environments step with the threaded kernel ``k_env_step_par``
 #: (below it the serial ``k_env_step``; the single env, N = 1, never starts numba's threads).
 #: Chosen by measurement (benchmarks/vector.py): below ~256 rows the threads' launch
 #: overhead (~10-20 us a call) eats the gain.
 PAR_MIN_ROWS = 256
+
+#: Divergence bound on every body-twist entry (m/s and rad/s): a step ending beyond it is a
+#: numerical failure (state restored, ``F_OK`` False), like a non-finite one. It is 50x and
+#: more above every robot's sanity limit (``RobotSpec.v_max``, ``w_max``: at most 10 m/s and
+#: 20 rad/s), which ends an episode long before a real motion gets near it; RK4 outside its
+#: stability region grows by orders of magnitude a substep, so it crosses the bound (or
+#: overflows) on the step where it diverges.
+SPEED_BOUND = 1.0e3
 
 
 #: Column layout of the per-row float block ``B`` for ``m`` inputs (see :func:`layout`).
@@ -73,8 +81,9 @@ def _scale_row(i, A, LH, B, F):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _finish_row(jrate, feats, i, X, P, Xo, B, F, acc, m):  # pragma: no cover - compiled
     """After the substeps of row i (new state in ``Xo[i]``, motor work ``acc``): back to
-    ``X[i]`` where not finite (``F_OK`` False), else add the work; write the joint rates
-    ``jv``, pose, twist, features and the internal-force measure."""
+    ``X[i]`` where not finite or where a twist entry exceeds :data:`SPEED_BOUND` (a diverged
+    integration; ``F_OK`` False), else add the work; write the joint rates ``jv``, pose,
+    twist, features and the internal-force measure."""
     o_e = 2 * m
     o_p = 2 * m + 2
     o_f = 2 * m + 11
@@ -89,11 +98,19 @@ def _finish_row(jrate, feats, i, X, P, Xo, B, F, acc, m):  # pragma: no cover - 
     if not good:
         for k in range(x.shape[0]):
             x[k] = X[i, k]
-    else:
+    while True:  # twice at most: a twist beyond SPEED_BOUND is a diverged step too
+        jrate(x, p, b[m:2 * m])
+        b[o_p + 6] = feats(x, b[0:m], p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
+        if good and not (abs(b[o_p + 3]) <= SPEED_BOUND and abs(b[o_p + 4]) <= SPEED_BOUND
+                         and abs(b[o_p + 5]) <= SPEED_BOUND):
+            good = False
+            for k in range(x.shape[0]):
+                x[k] = X[i, k]
+        else:
+            break
+    if good:
         b[o_e] += acc
-    jrate(x, p, b[m:2 * m])
     F[i, 1] = good
-    b[o_p + 6] = feats(x, b[0:m], p, b[o_p:o_p + 3], b[o_p + 3:o_p + 6], b[o_f:nb])
 
 
 @njit(cache=True, inline="always")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import sys
+from functools import partial
 
 import numpy as np
 from numba import njit
@@ -74,23 +75,20 @@ def _input_bounds(params, mode):  # the core asks the model instance instead
     raise NotImplementedError
 
 
-def _initial_state(nx: int):
-    def init(pose: np.ndarray, params) -> np.ndarray:
-        X = np.zeros((pose.shape[0], nx))
-        X[:, :3] = pose
-        return X
+def _initial_state(nx: int, pose: np.ndarray, params) -> np.ndarray:
+    """Rest state of ``nx`` entries at ``pose (N, 3)`` (module-level, bound with
+    ``functools.partial``, so a spec and the environments holding it can be pickled)."""
+    X = np.zeros((pose.shape[0], nx))
+    X[:, :3] = pose
+    return X
 
-    return init
 
-
-def _geometry(length: float, width: float, r: float):
-    def geom(p) -> dict:
-        return {"footprint": np.array([[-0.35 * length, 0.5 * width], [0.65 * length, 0.5 * width],
-                                       [0.65 * length, -0.5 * width],
-                                       [-0.35 * length, -0.5 * width]]),
-                "wheel_radius": r, "wheel_width": 0.05}
-
-    return geom
+def _geometry(length: float, width: float, r: float, p) -> dict:
+    """Rendering geometry (bound with ``functools.partial``, picklable)."""
+    return {"footprint": np.array([[-0.35 * length, 0.5 * width], [0.65 * length, 0.5 * width],
+                                   [0.65 * length, -0.5 * width],
+                                   [-0.35 * length, -0.5 * width]]),
+            "wheel_radius": r, "wheel_width": 0.05}
 
 
 def _wheels_dd(x, p):
@@ -120,16 +118,17 @@ def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None) -
         action_modes=tuple(cls.input_modes), twist_dim=2, twist_max=(1.0, 2.0),
         v_max=10.0, w_max=20.0, feat_names=feats, feat_high=(1.0,) * len(feats), radius=0.35,
         randomize=randomize or {}, default_randomize=default or {},
-        initial_state=_initial_state(nx), n_motor=0, has_internal_force=False,
+        initial_state=partial(_initial_state, nx), n_motor=0, has_internal_force=False,
         geometry=geom, wheels=wheels,
     )
 
 
 _WR = {"wheel_radius": (("wheel_radius", "rel"),)}
-UNICYCLE = _spec("Unicycle", Unicycle, 3, _geometry(0.4, 0.4, 0.1), _wheels_uni,
+UNICYCLE = _spec("Unicycle", Unicycle, 3, partial(_geometry, 0.4, 0.4, 0.1), _wheels_uni,
                  randomize=_WR, default={"wheel_radius": (0.95, 1.05)})
-DIFFDRIVE = _spec("DiffDrive", DifferentialDrive, 3, _geometry(0.5, 0.5, 0.1), _wheels_dd,
+DIFFDRIVE = _spec("DiffDrive", DifferentialDrive, 3, partial(_geometry, 0.5, 0.5, 0.1),
+                  _wheels_dd,
                   randomize=_WR, default={"wheel_radius": (0.95, 1.05)})
-BICYCLE = _spec("Bicycle", Bicycle, 3, _geometry(0.8, 0.3, 0.15), _wheels_bic)
-ACKERMANN = _spec("Ackermann", Ackermann, 4, _geometry(0.8, 0.5, 0.1), _wheels_ack,
+BICYCLE = _spec("Bicycle", Bicycle, 3, partial(_geometry, 0.8, 0.3, 0.15), _wheels_bic)
+ACKERMANN = _spec("Ackermann", Ackermann, 4, partial(_geometry, 0.8, 0.5, 0.1), _wheels_ack,
                   feats=("cos_psi", "sin_psi"))
