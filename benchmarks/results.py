@@ -1,10 +1,12 @@
 """The README's results table: trained agents (3 seeds) vs the analytic baseline and random.
 
-    python benchmarks/results.py            # every config in configs/, 3 seeds, full budgets
+    python benchmarks/results.py            # every config in configs/, 3 seeds, own budgets
     python benchmarks/results.py --quick    # 1 seed, a tenth of each budget, 5 episodes
     python benchmarks/results.py configs/ThreeWheel-goal-velocity.yml --seeds 3
+    python benchmarks/results.py --table    # the Markdown table of the CSV so far
 
-The same as ``wheelgym benchmark``; prints a Markdown table with the wall time it took.
+The same as ``wheelgym benchmark``: one row per (config, seed) appended to
+``benchmarks/results/training.csv`` as each run ends (a rerun skips finished rows).
 """
 
 import sys

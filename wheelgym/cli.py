@@ -8,7 +8,11 @@ command                                 what it does
 ``wheelgym train CONFIG``               train from a YAML config into a new run folder
 ``wheelgym train --resume RUN``         continue a run from its last model or checkpoint
 ``wheelgym evaluate RUN``               table (Markdown + CSV), plots, optional video
-``wheelgym benchmark [--quick]``        the results table over configs x 3 seeds
+``wheelgym tune CONFIG``                Optuna hyperparameter search; writes the best config
+``wheelgym tune --export NAME``         write the best config of an existing study
+``wheelgym benchmark [CONFIGS]``        configs x seeds -> one CSV row each (resumable)
+``wheelgym benchmark --table``          the results table (Markdown) from that CSV
+``wheelgym benchmark --curves OUT``     learning curves of the configs given, from that CSV
 ``wheelgym demo ID``                    watch (or save a GIF/MP4 of) the baseline driving
 ``wheelgym validate``                   the physics validation report
 ======================================= ==================================================
@@ -70,6 +74,16 @@ def _nonneg_int(text: str) -> int:
     return _int_arg(text, 0)
 
 
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
 class _Parser(argparse.ArgumentParser):
     """``ArgumentParser`` whose errors are one line on stderr (exit status 2)."""
 
@@ -123,16 +137,60 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--best", action="store_true", help="use best_model.zip, not model.zip")
     e.add_argument("--out", type=Path, default=None, help="output folder (default RUN/eval)")
 
+    u = sub.add_parser("tune", help="hyperparameter search with Optuna (writes the best config)")
+    u.add_argument("config", nargs="?", type=Path, help="YAML config to tune (see configs/)")
+    u.add_argument("--trials", type=_positive_int, default=None,
+                   help="trials this call runs (default 20; unlimited with --timeout)")
+    u.add_argument("--timesteps", type=_positive_int, default=None,
+                   help="training steps per trial (default: the config's n_timesteps)")
+    u.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
+                   help="start no trial after this many seconds")
+    u.add_argument("--storage", default=None, metavar="URL",
+                   help="Optuna storage: SQLAlchemy URL or SQLite file "
+                        "(default RUNS_ROOT/STUDY/study.db)")
+    u.add_argument("--study-name", default=None,
+                   help="study to create or continue (default <Robot>-<task>-<mode>-<algo>)")
+    u.add_argument("--runs-root", type=Path, default=Path("runs/tune"),
+                   help="study folders (trial runs, study.db, best.yml) go here")
+    u.add_argument("--seed", type=_nonneg_int, default=0,
+                   help="sampler seed; trial n trains with seed + n")
+    u.add_argument("--algo", default=None, choices=("ppo", "sac", "td3"),
+                   help="tune this algorithm instead of the config's")
+    u.add_argument("--metric", default="return", choices=("return", "success", "rms"),
+                   help="objective: last evaluation's mean return, success rate (maximised) "
+                        "or RMS tracking error (minimised)")
+    u.add_argument("--pruner", default="median", choices=("median", "halving", "none"))
+    u.add_argument("--evals", type=_positive_int, default=5,
+                   help="evaluations per trial (pruning points; default 5)")
+    u.add_argument("--eval-episodes", type=_positive_int, default=None,
+                   help="episodes per evaluation (default: the config's)")
+    u.add_argument("--no-enqueue", action="store_true",
+                   help="do not make the config's own hyperparameters the first trial")
+    u.add_argument("--export", default=None, metavar="NAME",
+                   help="only write the best config of study NAME (with --storage, --out)")
+    u.add_argument("--out", type=Path, default=None,
+                   help="best config file (default RUNS_ROOT/STUDY/best.yml)")
+
     b = sub.add_parser("benchmark", help="results table: configs x seeds vs baseline/random")
     b.add_argument("configs", nargs="*", type=Path,
-                   help="config files (default: every file in configs/)")
+                   help="config files (default: every file in configs/); with --table or "
+                        "--curves: the configs to show (default all in the CSV)")
     b.add_argument("--quick", action="store_true",
                    help="1 seed, a tenth of each budget, 5 episodes")
     b.add_argument("--seeds", type=_positive_int, default=None, help="seeds per config (3)")
     b.add_argument("--episodes", type=_positive_int, default=None,
-                   help="evaluation episodes per seed (20)")
+                   help="evaluation episodes per seed (50)")
     b.add_argument("--budget", type=_positive_int, default=None,
                    help="training steps per run (default: each config's n_timesteps)")
+    b.add_argument("--workers", type=_positive_int, default=1,
+                   help="parallel training processes (1 torch and 1 numba thread each)")
+    b.add_argument("--csv", type=Path, default=None,
+                   help="results CSV, appended row by row; rows present are skipped "
+                        "(default benchmarks/results/training.csv)")
+    b.add_argument("--table", action="store_true",
+                   help="only print the Markdown table of the CSV (no training)")
+    b.add_argument("--curves", type=Path, default=None, metavar="OUT.png",
+                   help="only draw learning curves of the configs given from the CSV's runs")
     b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
 
@@ -148,7 +206,7 @@ def _parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
-    for sp in (m, t, e, b, d, v):
+    for sp in (m, t, e, u, b, d, v):
         _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
     return p
 
@@ -224,13 +282,68 @@ def _cmd_main(a: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_benchmark(a: argparse.Namespace) -> int:
-    from wheelgym.agents.benchmark import run_benchmark
+def _cmd_tune(a: argparse.Namespace) -> int:
+    try:
+        from wheelgym.agents.tune import export_best, tune
+    except ImportError as e:
+        raise ValueError(f"wheelgym tune needs optuna (pip install -e '.[train]'): {e}") from None
 
     if a.out is not None:
         _check_writable_file(a.out, "--out")
-    table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds, episodes=a.episodes,
-                          budget=a.budget, runs_root=a.runs_root, log=_print)
+    if a.export is not None:
+        if a.config is not None:
+            raise ValueError("--export NAME takes no CONFIG (the study holds its config)")
+        path = export_best(a.export, storage=a.storage, out=a.out, runs_root=a.runs_root)
+        _print(f"wrote the best config of study {a.export!r} to {path}")
+        return 0
+    if a.config is None:
+        raise ValueError("give a CONFIG file (see configs/) or --export NAME")
+    tune(a.config, trials=a.trials, timesteps=a.timesteps, timeout=a.timeout, storage=a.storage,
+         study_name=a.study_name, runs_root=a.runs_root, seed=a.seed, algo=a.algo,
+         metric=a.metric, pruner=a.pruner, n_evals=a.evals, eval_episodes=a.eval_episodes,
+         out=a.out, enqueue_config=not a.no_enqueue, log=_print)
+    return 0
+
+
+def _cmd_benchmark(a: argparse.Namespace) -> int:
+    from wheelgym.agents.benchmark import (
+        DEFAULT_CSV,
+        format_table,
+        plot_curves,
+        read_rows,
+        run_benchmark,
+    )
+
+    csv_path = a.csv if a.csv is not None else DEFAULT_CSV
+    if a.out is not None:
+        _check_writable_file(a.out, "--out")
+    if a.curves is not None:
+        _check_writable_file(a.curves, "--curves")
+    if a.table or a.curves is not None:
+        given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                                ("--episodes", a.episodes), ("--budget", a.budget),
+                                ("--workers", a.workers != 1)) if v]
+        if given:
+            raise ValueError(f"--table and --curves read the CSV and train nothing; drop "
+                             f"{', '.join(given)}")
+        rows = read_rows(csv_path)
+        names = {p.stem for p in a.configs}
+        if names:
+            known = sorted({r["config"] for r in rows})
+            bad = sorted(names - set(known))
+            if bad:
+                raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: "
+                                 f"{known}")
+        if a.curves is not None:
+            out = plot_curves(rows, [str(p) for p in a.configs], a.curves, log=_print)
+            _print(f"wrote {out}")
+        if not a.table:
+            return 0
+        table = format_table([r for r in rows if not names or r["config"] in names])
+    else:
+        table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds,
+                              episodes=a.episodes, budget=a.budget, runs_root=a.runs_root,
+                              csv_path=csv_path, workers=a.workers, log=_print)
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
@@ -316,6 +429,7 @@ _COMMANDS = {
     "main": _cmd_main,
     "train": _cmd_train,
     "evaluate": _cmd_evaluate,
+    "tune": _cmd_tune,
     "benchmark": _cmd_benchmark,
     "demo": _cmd_demo,
     "validate": _cmd_validate,

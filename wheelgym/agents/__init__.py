@@ -5,7 +5,8 @@ Needs the ``train`` extra (``pip install -e ".[train]"``). Submodules:
 - :mod:`wheelgym.agents.config`: YAML configs (RL Zoo layout plus a ``wheelgym`` block)
 - :mod:`wheelgym.agents.train`: ``train(config)``, ``resume(run)``, run folders
 - :mod:`wheelgym.agents.evaluate`: one loop scoring agent, baseline and random on the same seeds
-- :mod:`wheelgym.agents.benchmark`: the results table over configs and seeds
+- :mod:`wheelgym.agents.benchmark`: the results CSV and table over configs and seeds
+- :mod:`wheelgym.agents.tune`: Optuna hyperparameter studies written back as configs
 
 Nothing here is imported by ``import wheelgym``.
 """

@@ -1,23 +1,91 @@
-"""The results table: for each config (id x task x action mode), the trained agent over several
-seeds against the analytic baseline and a random policy, on the same evaluation seeds.
+"""The results table: every config (id x task x action mode) trained on several seeds, scored
+against the analytic baseline and a random policy on the same evaluation seeds.
 
-Agent cells are the mean ± standard deviation over training seeds of each seed's mean over
-evaluation episodes; baseline and random cells are over evaluation episodes (they do not train).
+:func:`run_benchmark` trains each (config, seed) job and appends its row to a CSV
+(``benchmarks/results/training.csv`` by default) as soon as it ends: one line, appended,
+flushed and fsync'd, so a killed process loses at most its running jobs. Run again, it skips the
+jobs whose row is there (same config, seed, budget and evaluation episodes), so the table can be
+built over several sittings. ``workers`` > 1 runs jobs in parallel local processes, each with
+one torch and one numba thread; only the main process writes the CSV.
+
+Per config, before its jobs, the baseline and random policies are scored on the evaluation seeds
+(``EVAL_SEED + i``, ``i < episodes``, the agents' too), and the baseline once more on the seeds
+of the training's periodic evaluation (``EVAL_HISTORY_SEED + i``, ``i < eval_episodes``): its
+level there (``baseline_eval_*``) is what ``steps_to_baseline`` compares the run's eval.csv
+with: the first evaluation with a success rate within 5 points of the baseline's (``goal``,
+``navigate``) or an RMS tracking error within 2x the baseline's (``track``); empty if never.
+A ``budget`` (training steps) other than the config's scales its ``eval_freq`` alike.
+
+CSV columns (:data:`COLUMNS`): ``success`` and ``saturation`` are fractions, ``rms`` [m],
+``energy`` [J], ``internal_force`` [N·m] means over episodes; empty where the metric does not
+apply (RMS off ``track``, energy on kinematic robots, internal force but on ThreeWheel) or the
+baseline is missing. ``train_s``: training wall time; ``cpu_s``: the job's CPU time (training and
+evaluation). ``run_dir``: the run folder, for the learning curves.
+
+:func:`format_table` turns rows into the README's Markdown table (mean ± std over seeds);
+:func:`plot_curves` draws learning curves from the run folders' eval.csv.
 """
 
 from __future__ import annotations
 
+import csv
+import math
+import os
+import signal
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from wheelgym.agents.config import TrainConfig, configs_dir, load_config
 
-__all__ = ["run_benchmark", "benchmark_config", "default_configs"]
+__all__ = [
+    "COLUMNS",
+    "DEFAULT_CSV",
+    "run_benchmark",
+    "run_jobs",
+    "read_rows",
+    "format_table",
+    "plot_curves",
+    "steps_to_baseline",
+    "default_configs",
+    "BenchmarkSummary",
+]
 
 EVAL_SEED = 200_000
+DEFAULT_CSV = Path("benchmarks/results/training.csv")
+
+#: Columns of the results CSV, in order.
+COLUMNS: tuple[str, ...] = (
+    "config", "algo", "seed", "n_timesteps", "episodes", "train_s", "cpu_s", "steps_to_baseline",
+    "agent_success", "baseline_success", "random_success",
+    "agent_rms", "baseline_rms",
+    "agent_return", "baseline_return", "random_return",
+    "agent_energy", "baseline_energy",
+    "agent_internal_force", "baseline_internal_force",
+    "agent_saturation", "baseline_saturation",
+    "baseline_eval_success", "baseline_eval_rms",
+    "run_dir", "finished_utc",
+)
+
+#: Episode attributes behind the metric columns: column suffix -> Episode attribute.
+_METRICS: dict[str, str] = {
+    "success": "success",
+    "rms": "rms_tracking_error",
+    "return": "ret",
+    "energy": "energy",
+    "internal_force": "mean_internal_force",
+    "saturation": "saturation",
+}
+
+#: Steps-to-baseline levels: success within this many points, RMS within this factor.
+SUCCESS_POINTS = 5.0
+RMS_FACTOR = 2.0
 
 
 def default_configs() -> list[Path]:
@@ -25,119 +93,408 @@ def default_configs() -> list[Path]:
     return sorted(configs_dir().glob("*.yml"))
 
 
-def _cell(values: Sequence[float | None], scale: float = 1.0, digits: int = 2) -> str:
-    vals = [v for v in values if v is not None]
-    if not vals:
-        return "n/a"
-    a = np.asarray(vals, dtype=np.float64) * scale
-    if len(a) == 1:
-        return f"{a[0]:.{digits}f}"
-    return f"{a.mean():.{digits}f} ± {a.std():.{digits}f}"
+# --------------------------------------------------------------------------------------------
+# scoring
+# --------------------------------------------------------------------------------------------
 
 
-def _mean(xs: Sequence[float | None]) -> float | None:
-    vals = [x for x in xs if x is not None]
+def _fmt(v: float | None) -> str:
+    return "" if v is None else f"{v:.6g}"
+
+
+def _num(text: str | None) -> float | None:
+    if text is None or text.strip() == "":
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _mean(values: Sequence[Any]) -> float | None:
+    vals = [float(v) for v in values if v is not None]
     return float(np.mean(vals)) if vals else None
 
 
-def benchmark_config(
-    config: TrainConfig,
-    *,
-    seeds: Sequence[int],
-    episodes: int,
-    budget: int,
-    runs_root: Path,
-    log: Callable[[str], None] | None = None,
-) -> dict:
-    """Train ``len(seeds)`` agents and score them, the baseline and random on the same seeds."""
-    from wheelgym.agents.evaluate import evaluate_policy_episodes
-    from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
-    from wheelgym.agents.train import make_single_env, train
+def _score(episodes: list | None, applicable: Sequence[str]) -> dict[str, float | None]:
+    """Mean over episodes of each metric column (``None`` where it does not apply)."""
+    out: dict[str, float | None] = {}
+    for col, attr in _METRICS.items():
+        if episodes is None or attr not in applicable:
+            out[col] = None
+        else:
+            out[col] = _mean([getattr(e, attr) for e in episodes])
+    return out
 
-    eval_seeds = [EVAL_SEED + i for i in range(episodes)]
-    per_seed = []
-    train_s = []
-    for s in seeds:
-        t0 = time.perf_counter()
-        result = train(config, seed=s, total_timesteps=budget, runs_root=runs_root,
-                       progress=False)
-        train_s.append(time.perf_counter() - t0)
-        if result.status != "finished":
-            raise KeyboardInterrupt
-        agent = load_agent(result.run_dir / "model.zip", config.algo,
-                           result.run_dir / "vecnormalize.pkl", device=config.device)
-        env = make_single_env(config)
-        try:
-            eps = evaluate_policy_episodes(env, agent, eval_seeds, record=False)
-        finally:
-            env.close()
-        per_seed.append(eps)
-        if log is not None:
-            succ = _mean([e.success for e in eps])
-            log(f"  {config.name} seed {s}: {budget} steps in {train_s[-1]:.0f} s, success "
-                f"{'n/a' if succ is None else f'{100 * succ:.0f}%'}, "
-                f"return {np.mean([e.ret for e in eps]):.1f}")
+
+def _baseline_scores(path: Path, episodes: int) -> dict[str, Any]:
+    """Baseline and random on the evaluation seeds, and the baseline on eval.csv's seeds."""
+    from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
+    from wheelgym.agents.policies import RandomPolicy, make_baseline
+    from wheelgym.agents.train import EVAL_HISTORY_SEED, make_single_env
+
+    config = load_config(path)
+    seeds = [EVAL_SEED + i for i in range(episodes)]
     env = make_single_env(config)
-    others = {}
     try:
+        applicable = applicable_metrics(env)
         try:
-            others["baseline"] = evaluate_policy_episodes(env, make_baseline(env), eval_seeds,
-                                                          record=False)
+            baseline = make_baseline(env)
         except ValueError:
-            others["baseline"] = None
-        others["random"] = evaluate_policy_episodes(env, RandomPolicy(env.action_space),
-                                                    eval_seeds, record=False)
+            baseline = None
+        base_eps = eval_eps = None
+        if baseline is not None:
+            base_eps = evaluate_policy_episodes(env, baseline, seeds, record=False)
+            hist = [EVAL_HISTORY_SEED + i for i in range(config.eval_episodes)]
+            eval_eps = evaluate_policy_episodes(env, baseline, hist, record=False)
+        rand_eps = evaluate_policy_episodes(env, RandomPolicy(env.action_space), seeds,
+                                            record=False)
     finally:
         env.close()
+    base = _score(base_eps, applicable)
+    ev = _score(eval_eps, applicable)
+    return {"baseline": base, "random": _score(rand_eps, applicable),
+            "eval_success": ev["success"], "eval_rms": ev["rms"]}
 
-    def agent_stat(attr: str) -> list[float | None]:
-        return [_mean([getattr(e, attr) for e in eps]) for eps in per_seed]
 
-    def episode_stat(eps, attr: str) -> list[float | None]:
-        return [] if eps is None else [getattr(e, attr) for e in eps]
+def steps_to_baseline(eval_csv: str | Path, success: float | None, rms: float | None) -> int | None:
+    """The first evaluation's steps in ``eval_csv`` at the baseline's level, else ``None``.
 
-    return {
-        "config": config,
-        "budget": budget,
-        "n_seeds": len(seeds),
-        "train_s": float(np.mean(train_s)),
-        "agent": {a: agent_stat(a) for a in ("success", "ret", "rms_tracking_error")},
-        "baseline": {a: episode_stat(others["baseline"], a)
-                     for a in ("success", "ret", "rms_tracking_error")},
-        "random": {a: episode_stat(others["random"], a)
-                   for a in ("success", "ret", "rms_tracking_error")},
+    With an RMS level (``track``): RMS error at most :data:`RMS_FACTOR` x ``rms``; otherwise a
+    success rate at least ``success`` minus :data:`SUCCESS_POINTS` points (rates as fractions).
+    """
+    path = Path(eval_csv)
+    if not path.is_file() or (success is None and rms is None):
+        return None
+    with path.open(newline="") as f:
+        for row in csv.DictReader(f):
+            steps = _num(row.get("timesteps"))
+            if steps is None:
+                continue
+            if rms is not None:
+                err = _num(row.get("rms_tracking_error"))
+                if err is not None and err <= RMS_FACTOR * rms:
+                    return int(steps)
+            elif success is not None:
+                rate = _num(row.get("success_rate"))
+                if rate is not None and 100 * rate >= 100 * success - SUCCESS_POINTS - 1e-9:
+                    return int(steps)
+    return None
+
+
+def _scaled_eval_freq(config: TrainConfig, budget: int) -> int:
+    """The config's evaluation period scaled to ``budget``, at least one rollout."""
+    if budget == config.n_timesteps:
+        return config.eval_freq
+    freq = (config.eval_freq * budget // config.n_timesteps) if config.eval_freq else budget // 10
+    rollout = config.n_envs * int(config.hyperparams.get("n_steps", 1))
+    if config.algo not in ("ppo", "a2c"):
+        rollout = config.n_envs
+    return max(freq, rollout, 1)
+
+
+@dataclass
+class _Job:
+    path: str
+    name: str
+    seed: int
+    budget: int
+    episodes: int
+    runs_root: str
+    levels: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> tuple[str, int, int, int]:
+        return (self.name, self.seed, self.budget, self.episodes)
+
+
+def _run_job(job: _Job) -> dict | None:
+    """Train and score one (config, seed); the CSV row, or ``None`` when interrupted."""
+    from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
+    from wheelgym.agents.policies import load_agent
+    from wheelgym.agents.train import make_single_env, train
+
+    cpu0 = time.process_time()
+    config = load_config(job.path)
+    changes: dict[str, Any] = {"seed": job.seed, "n_timesteps": job.budget,
+                               "eval_freq": _scaled_eval_freq(config, job.budget)}
+    if os.environ.get(_WORKER_ENV):
+        changes["torch_threads"] = 1
+    config = config.replace(**changes)
+    result = train(config, runs_root=job.runs_root, progress=False)
+    if result.status != "finished":
+        return None
+    agent = load_agent(result.run_dir / "model.zip", config.algo,
+                       result.run_dir / "vecnormalize.pkl", device=config.device)
+    env = make_single_env(config)
+    try:
+        applicable = applicable_metrics(env)
+        eps = evaluate_policy_episodes(env, agent, [EVAL_SEED + i for i in range(job.episodes)],
+                                       record=False)
+    finally:
+        env.close()
+    agent_s = _score(eps, applicable)
+    lv = job.levels
+    reach = steps_to_baseline(result.run_dir / "eval.csv", lv["eval_success"], lv["eval_rms"])
+    row: dict[str, Any] = {
+        "config": job.name, "algo": config.algo, "seed": job.seed, "n_timesteps": job.budget,
+        "episodes": job.episodes, "train_s": f"{result.wall_s:.1f}",
+        "cpu_s": f"{time.process_time() - cpu0:.1f}",
+        "steps_to_baseline": "" if reach is None else reach,
+        "baseline_eval_success": _fmt(lv["eval_success"]),
+        "baseline_eval_rms": _fmt(lv["eval_rms"]),
+        "run_dir": str(result.run_dir),
+        "finished_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
+    for col in _METRICS:
+        row[f"agent_{col}"] = _fmt(agent_s[col])
+        row[f"baseline_{col}"] = _fmt(lv["baseline"][col])
+    row["random_success"] = _fmt(lv["random"]["success"])
+    row["random_return"] = _fmt(lv["random"]["return"])
+    return row
 
 
-def format_table(rows: list[dict], episodes: int, wall_s: float) -> str:
-    head = [
-        "robot", "task", "action", "algo", "budget [steps]", "seeds",
-        "agent success [%]", "baseline success [%]", "random success [%]",
-        "agent return", "baseline return", "random return",
-        "agent RMS err [m]", "baseline RMS err [m]", "train [s/seed]",
-    ]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for r in rows:
-        c: TrainConfig = r["config"]
-        robot = c.env_id.split("/")[-1]
-        lines.append("| " + " | ".join([
-            robot, str(c.task or "-"), str(c.action_mode or "-"), c.algo.upper(),
-            str(r["budget"]), str(r["n_seeds"]),
-            _cell(r["agent"]["success"], 100, 0), _cell(r["baseline"]["success"], 100, 0),
-            _cell(r["random"]["success"], 100, 0),
-            _cell(r["agent"]["ret"], 1, 1), _cell(r["baseline"]["ret"], 1, 1),
-            _cell(r["random"]["ret"], 1, 1),
-            _cell(r["agent"]["rms_tracking_error"], 1, 3),
-            _cell(r["baseline"]["rms_tracking_error"], 1, 3),
-            f"{r['train_s']:.0f}",
-        ]) + " |")
-    lines.append("")
-    lines.append(
-        f"Agent: mean ± std over training seeds of the success rate (return, error) over "
-        f"{episodes} evaluation episodes; baseline and random: mean ± std over the same "
-        f"episodes. Total wall time {wall_s / 60:.1f} min."
-    )
-    return "\n".join(lines)
+_WORKER_ENV = "WHEELGYM_BENCHMARK_WORKER"
+
+
+def _worker_init() -> None:
+    """A pool process: one torch thread, one numba thread; Ctrl-C is the training's to handle."""
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", _WORKER_ENV):
+        os.environ[var] = "1"
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # train() installs its own handler meanwhile
+    import numba
+    import torch
+
+    torch.set_num_threads(1)
+    numba.set_num_threads(1)
+
+
+# --------------------------------------------------------------------------------------------
+# the CSV
+# --------------------------------------------------------------------------------------------
+
+
+def read_rows(path: str | Path) -> list[dict[str, str]]:
+    """The rows of a results CSV (a torn last line from a killed writer is skipped)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"results CSV {str(path)!r} not found")
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        missing = [c for c in ("config", "seed", "n_timesteps") if c not in (reader.fieldnames
+                                                                            or [])]
+        if missing:
+            raise ValueError(f"{path}: not a results CSV (no columns {missing})")
+        return [r for r in reader if None not in r and None not in r.values() and r.get("config")
+                and _num(r.get("n_timesteps")) is not None and _num(r.get("seed")) is not None]
+
+
+def _row_key(r: dict[str, str]) -> tuple[str, int, int, int]:
+    return (r["config"], int(float(r["seed"])), int(float(r["n_timesteps"])),
+            int(float(r.get("episodes") or 0)))
+
+
+def _append_row(path: Path, row: dict[str, Any]) -> None:
+    """Append one row (header first in a new file); flushed and fsync'd before returning."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a+", newline="") as f:
+        try:
+            import fcntl
+
+            fcntl.flock(f, fcntl.LOCK_EX)  # another benchmark process appending meanwhile
+        except (ImportError, OSError):
+            pass
+        f.seek(0, os.SEEK_END)
+        if f.tell() == 0:
+            header = list(COLUMNS)
+        else:
+            f.seek(0)
+            header = next(csv.reader(f), list(COLUMNS))
+            f.seek(0, os.SEEK_END)
+            f.seek(f.tell() - 1)
+            if f.read(1) != "\n":  # a torn line from a killed writer: start a new one
+                f.write("\n")
+        missing = [c for c in COLUMNS if c not in header]
+        if missing:
+            raise ValueError(f"{path}: its header lacks columns {missing}; use another --csv")
+        w = csv.DictWriter(f, fieldnames=header, extrasaction="ignore")
+        if f.tell() == 0:
+            w.writeheader()
+        w.writerow(row)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+# --------------------------------------------------------------------------------------------
+# run
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class BenchmarkSummary:
+    """What a benchmark call did: rows written, jobs skipped and failed, its rows, wall time."""
+
+    csv_path: Path
+    written: int
+    skipped: int
+    failed: list[str]
+    rows: list[dict[str, str]]
+    wall_s: float
+
+
+def run_jobs(
+    configs: Sequence[str | Path] | None = None,
+    *,
+    seeds: int = 3,
+    episodes: int = 50,
+    budget: int | None = None,
+    quick: bool = False,
+    csv_path: str | Path = DEFAULT_CSV,
+    runs_root: str | Path = "runs/benchmark",
+    workers: int = 1,
+    log: Callable[[str], None] | None = None,
+) -> BenchmarkSummary:
+    """Train and score every (config, seed) whose row is not in ``csv_path`` yet; append rows.
+
+    ``budget`` overrides each config's ``n_timesteps``; ``quick``: a tenth of each budget (at
+    least 2048 steps). Ctrl-C keeps the finished rows (running jobs stop and are dropped) and
+    re-raises ``KeyboardInterrupt``; a job that raised is reported in ``failed``.
+    """
+    for name, value in (("seeds", seeds), ("episodes", episodes), ("workers", workers)):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if budget is not None and (not isinstance(budget, int) or budget < 1):
+        raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
+    csv_path, root = Path(csv_path), Path(runs_root)
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"runs root {str(root)!r} exists and is not a folder")
+    if csv_path.is_dir():
+        raise ValueError(f"--csv {str(csv_path)!r} is a folder; give a file name")
+    paths = [Path(p) for p in configs] if configs else default_configs()
+    loaded = [(p, load_config(p)) for p in paths]  # every config checked before any work
+    done = {_row_key(r) for r in read_rows(csv_path)} if csv_path.is_file() else set()
+
+    jobs: list[_Job] = []
+    skipped = 0
+    for path, config in loaded:
+        steps = budget if budget is not None else (
+            max(config.n_timesteps // 10, 2048) if quick else config.n_timesteps)
+        for s in range(seeds):
+            job = _Job(str(path), path.stem, s, steps, episodes, str(root))
+            if job.key in done:
+                skipped += 1
+            else:
+                jobs.append(job)
+    if log is not None:
+        log(f"benchmark: {len(jobs)} run(s) to do, {skipped} already in {csv_path}; "
+            f"{workers} worker(s)")
+    t0 = time.perf_counter()
+    written = 0
+    failed: list[str] = []
+    levels: dict[tuple[str, int], dict] = {}
+
+    def prepare(job: _Job) -> _Job:
+        lk = (job.path, job.episodes)
+        if lk not in levels:
+            t = time.perf_counter()
+            levels[lk] = _baseline_scores(Path(job.path), job.episodes)
+            if log is not None:
+                b = levels[lk]["baseline"]
+                succ = "n/a" if b["success"] is None else f"{100 * b['success']:.0f}%"
+                log(f"{job.name}: baseline success {succ}, random "
+                    f"{_pct(levels[lk]['random']['success'])} on {job.episodes} episodes "
+                    f"({time.perf_counter() - t:.0f} s)")
+        job.levels = levels[lk]
+        return job
+
+    def finish(job: _Job, row: dict | None, error: BaseException | None) -> None:
+        nonlocal written
+        if error is not None:
+            msg = f"{job.name} seed {job.seed}: {type(error).__name__}: {error}"
+            failed.append(" ".join(msg.split())[:300])
+            if log is not None:
+                log(f"  FAILED {failed[-1]}")
+            return
+        if row is None:
+            return
+        _append_row(csv_path, row)
+        written += 1
+        if log is not None:
+            reach = row["steps_to_baseline"]
+            log(f"  {job.name} seed {job.seed}: {job.budget} steps in {float(row['train_s']):.0f}"
+                f" s, success {_pct(_num(row['agent_success']))} (baseline "
+                f"{_pct(_num(row['baseline_success']))}), return {row['agent_return']}, "
+                f"baseline level {'never' if reach == '' else f'at {reach} steps'} "
+                f"[{written}/{len(jobs)}]")
+
+    interrupted = False
+    if workers == 1:
+        for job in jobs:
+            row = None
+            try:
+                row = _run_job(prepare(job))
+            except KeyboardInterrupt:
+                interrupted = True
+                break
+            except Exception as e:
+                finish(job, None, e)
+                continue
+            if row is None:
+                interrupted = True
+                break
+            finish(job, row, None)
+    else:
+        import multiprocessing as mp
+
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                   initializer=_worker_init)
+        running: dict[Future, _Job] = {}
+        queue = list(jobs)
+        try:
+            while queue or running:
+                while queue and len(running) < workers:
+                    job = prepare(queue.pop(0))
+                    running[pool.submit(_run_job, job)] = job
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    job = running.pop(fut)
+                    try:
+                        row = fut.result()
+                    except Exception as e:
+                        finish(job, None, e)
+                        continue
+                    if row is None:
+                        interrupted = True
+                    finish(job, row, None)
+                if interrupted:
+                    break
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            if interrupted:  # the workers got SIGINT too: keep what ends, start nothing new
+                try:
+                    for fut in list(running):
+                        try:
+                            row = fut.result()
+                        except Exception:
+                            row = None
+                        finish(running.pop(fut), row, None)
+                except KeyboardInterrupt:
+                    pass
+            pool.shutdown(wait=True, cancel_futures=True)
+    rows = read_rows(csv_path) if csv_path.is_file() else []
+    summary = BenchmarkSummary(csv_path, written, skipped, failed, rows,
+                               time.perf_counter() - t0)
+    if interrupted:
+        if log is not None:
+            log(f"interrupted: {written} row(s) written to {csv_path}")
+        raise KeyboardInterrupt
+    return summary
+
+
+def _pct(v: float | None) -> str:
+    return "n/a" if v is None else f"{100 * v:.0f}%"
 
 
 def run_benchmark(
@@ -148,24 +505,193 @@ def run_benchmark(
     episodes: int | None = None,
     budget: int | None = None,
     runs_root: str | Path = "runs/benchmark",
+    csv_path: str | Path = DEFAULT_CSV,
+    workers: int = 1,
     log: Callable[[str], None] | None = None,
 ) -> str:
-    """Train and score each config; return the Markdown table (with its wall time).
+    """:func:`run_jobs`, then the Markdown table of this call's configs, budgets and episodes.
 
-    Defaults: 3 seeds, 20 evaluation episodes, each config's ``n_timesteps``. ``quick``: 1 seed,
-    5 episodes, a tenth of each budget (at least 2048 steps).
+    Defaults: 3 seeds, 50 evaluation episodes, each config's ``n_timesteps``; ``quick``: 1 seed,
+    5 episodes, a tenth of each budget (at least 2048 steps). Raises ``RuntimeError`` naming the
+    jobs that failed (after writing the others).
     """
-    paths = [Path(p) for p in configs] if configs else default_configs()
     n_seeds = seeds if seeds is not None else (1 if quick else 3)
-    n_eps = episodes if episodes is not None else (5 if quick else 20)
-    t0 = time.perf_counter()
-    rows = []
-    for path in paths:
-        config = load_config(path)
+    n_eps = episodes if episodes is not None else (5 if quick else 50)
+    paths = [Path(p) for p in configs] if configs else default_configs()
+    summary = run_jobs(paths, seeds=n_seeds, episodes=n_eps, budget=budget, quick=quick,
+                       csv_path=csv_path, runs_root=runs_root, workers=workers, log=log)
+    wanted = set()
+    for p in paths:
+        c = load_config(p)
         steps = budget if budget is not None else (
-            max(config.n_timesteps // 10, 2048) if quick else config.n_timesteps)
-        if log is not None:
-            log(f"{path.name}: {n_seeds} seed(s) x {steps} steps")
-        rows.append(benchmark_config(config, seeds=list(range(n_seeds)), episodes=n_eps,
-                                     budget=steps, runs_root=Path(runs_root), log=log))
-    return format_table(rows, n_eps, time.perf_counter() - t0)
+            max(c.n_timesteps // 10, 2048) if quick else c.n_timesteps)
+        wanted |= {(p.stem, s, steps, n_eps) for s in range(n_seeds)}
+    rows = [r for r in summary.rows if _row_key(r) in wanted]
+    table = format_table(rows)
+    if summary.failed:
+        raise RuntimeError(f"{len(summary.failed)} run(s) failed (their rows are missing; run "
+                           f"again to retry): {'; '.join(summary.failed)}")
+    return table
+
+
+# --------------------------------------------------------------------------------------------
+# table
+# --------------------------------------------------------------------------------------------
+
+
+def _cell(values: Sequence[float | None], scale: float, digits: int, spread: bool = True) -> str:
+    vals = [v for v in values if v is not None]
+    if not vals:
+        return "-"
+    a = np.asarray(vals, dtype=np.float64) * scale
+    if len(a) == 1 or not spread:
+        return f"{a.mean():.{digits}f}"
+    return f"{a.mean():.{digits}f} ± {a.std():.{digits}f}"
+
+
+def _reach_cell(values: Sequence[float | None]) -> str:
+    hit = [v for v in values if v is not None]
+    if not hit:
+        return "never"
+    mean = float(np.mean(hit))
+    text = f"{mean / 1000:.0f}k" if mean >= 10_000 else f"{mean:.0f}"
+    return text if len(hit) == len(values) else f"{text} ({len(hit)}/{len(values)})"
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+TABLE_HEAD: tuple[str, ...] = (
+    "config", "algo", "steps", "seeds", "episodes",
+    "agent success [%]", "baseline success [%]", "random success [%]",
+    "agent RMS [m]", "baseline RMS [m]", "agent return", "baseline return", "random return",
+    "steps to baseline", "train [s/seed]",
+)
+
+
+def format_table(rows: Sequence[dict[str, str]]) -> str:
+    """The Markdown results table of CSV rows: one line per (config, algo, steps, episodes).
+
+    Agent cells: mean ± std (population) over seeds of each seed's mean over episodes; baseline
+    and random: the mean over the same episodes (one value per config). Steps to baseline: the
+    mean over the seeds that reached the level, ``(k/n)`` when not all did, ``never`` when none.
+    Then the total CPU time of the rows (``cpu_s``, else ``train_s``).
+    """
+    groups: dict[tuple[str, str, int, int], list[dict[str, str]]] = {}
+    for r in rows:
+        key = (r["config"], r.get("algo", ""), int(float(r["n_timesteps"])),
+               int(float(r.get("episodes") or 0)))
+        groups.setdefault(key, []).append(r)
+    lines = ["| " + " | ".join(TABLE_HEAD) + " |", "|" + "---|" * len(TABLE_HEAD)]
+    cpu = 0.0
+    for (name, algo, steps, eps), rs in sorted(groups.items()):
+
+        def col(c: str, rs: list[dict[str, str]] = rs) -> list[float | None]:
+            return [_num(r.get(c)) for r in rs]
+
+        for r in rs:
+            cpu += _num(r.get("cpu_s")) or _num(r.get("train_s")) or 0.0
+        lines.append("| " + " | ".join([
+            name, algo.upper(), str(steps), str(len(rs)), str(eps),
+            _cell(col("agent_success"), 100, 0), _cell(col("baseline_success"), 100, 0, False),
+            _cell(col("random_success"), 100, 0, False),
+            _cell(col("agent_rms"), 1, 3), _cell(col("baseline_rms"), 1, 3, False),
+            _cell(col("agent_return"), 1, 1), _cell(col("baseline_return"), 1, 1, False),
+            _cell(col("random_return"), 1, 1, False),
+            _reach_cell(col("steps_to_baseline")),
+            _cell(col("train_s"), 1, 0, False),
+        ]) + " |")
+    lines.append("")
+    lines.append(
+        "Agent: mean ± std over training seeds of each seed's mean over the evaluation "
+        "episodes; baseline and random: mean over the same episodes. Steps to baseline: first "
+        "periodic evaluation within 5 points of the baseline's success (track: within 2x its RMS "
+        "error), mean over the seeds that reached it. "
+        f"Total CPU time {_duration(cpu)} ({len(rows)} runs)."
+    )
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------
+# learning curves
+# --------------------------------------------------------------------------------------------
+
+
+def _eval_history(run_dir: Path) -> list[dict[str, float | None]]:
+    path = run_dir / "eval.csv"
+    if not path.is_file():
+        return []
+    with path.open(newline="") as f:
+        return [{k: _num(v) for k, v in r.items() if k is not None} for r in csv.DictReader(f)]
+
+
+def plot_curves(rows: Sequence[dict[str, str]], configs: Sequence[str], out: str | Path,
+                log: Callable[[str], None] | None = None) -> Path:
+    """Learning curves of ``configs`` (names or config paths: their stems) from the rows' run
+    folders: success rate (track: RMS error) against steps and against wall seconds, mean over
+    seeds with the min-max spread, and the baseline's level on the same evaluation seeds."""
+    from wheelgym.agents.evaluate import _figure
+
+    names = [Path(c).stem for c in configs] if configs else sorted({r["config"] for r in rows})
+    known = sorted({r["config"] for r in rows})
+    bad = [n for n in names if n not in known]
+    if bad:
+        raise ValueError(f"configs {bad} have no rows in the CSV; configs there: {known}")
+    groups: dict[tuple[str, int], list[dict[str, str]]] = {}
+    for r in rows:
+        if r["config"] in names:
+            groups.setdefault((r["config"], int(float(r["n_timesteps"]))), []).append(r)
+    keys = sorted(groups, key=lambda k: (names.index(k[0]), k[1]))
+    fig = _figure(11.0, 3.2 * len(keys))
+    axes = fig.subplots(len(keys), 2, squeeze=False)
+    for (name, steps), (ax_s, ax_t) in zip(keys, axes, strict=True):
+        rs = groups[(name, steps)]
+        rms = any(_num(r.get("agent_rms")) is not None for r in rs)
+        column = "rms_tracking_error" if rms else "success_rate"
+        scale, label = (1.0, "RMS tracking error [m]") if rms else (100.0, "success [%]")
+        per_step: dict[float, list[tuple[float, float]]] = {}
+        n_runs = 0
+        for r in rs:
+            hist = [h for h in _eval_history(Path(r.get("run_dir", "")))
+                    if h.get(column) is not None and h.get("timesteps") is not None]
+            if not hist:
+                if log is not None:
+                    log(f"{name} seed {r['seed']}: no evaluation history in {r.get('run_dir')}")
+                continue
+            n_runs += 1
+            for h in hist:
+                per_step.setdefault(h["timesteps"], []).append(
+                    (h.get("wall_s") or 0.0, h[column] * scale))
+        xs = sorted(per_step)
+        ys = [np.array([y for _, y in per_step[x]]) for x in xs]
+        ws = [float(np.mean([w for w, _ in per_step[x]])) for x in xs]
+        level = _mean([_num(r.get("baseline_eval_rms" if rms else "baseline_eval_success"))
+                       for r in rs])
+        for ax, x, xlabel in ((ax_s, xs, "environment steps"), (ax_t, ws, "wall time [s]")):
+            if xs:
+                ax.plot(x, [y.mean() for y in ys], color="C0", lw=1.5,
+                        label=f"agent (mean of {n_runs})")
+                ax.fill_between(x, [y.min() for y in ys], [y.max() for y in ys], color="C0",
+                                alpha=0.25, lw=0, label="min-max over seeds")
+            else:
+                ax.text(0.5, 0.5, "no evaluation history", ha="center", va="center",
+                        transform=ax.transAxes)
+            if level is not None:
+                ax.axhline(level * scale, color="C1", ls="--", lw=1.2, label="baseline")
+            if rms and xs and min(float(y.min()) for y in ys) > 0:
+                ax.set_yscale("log")  # agent and baseline errors differ by orders of magnitude
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel(label)
+            ax.set_title(f"{name} ({steps} steps)", fontsize=9)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    return out

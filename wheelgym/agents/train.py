@@ -10,7 +10,8 @@ config.yml             the config as used (overrides applied), loadable by ``loa
 model.zip              the final (or interrupted, or failed) model
 vecnormalize.pkl       ``VecNormalize`` statistics (when ``normalize`` is on)
 eval.csv               evaluation history: steps, wall time (continued across resumes),
-                       mean/std return, success rate
+                       mean/std return, success rate, mean length, RMS tracking error
+                       (``track`` only; empty otherwise)
 best_model.zip         the model of the best evaluation (and ``best_vecnormalize.pkl``)
 checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
 tb/                    TensorBoard logs
@@ -19,7 +20,8 @@ run.lock               present while a process trains in the folder (holds its p
 ====================== ======================================================================
 
 ``status`` in run.json: ``running`` while training; ``finished`` when the target number of steps
-was reached; ``interrupted`` after Ctrl-C (SIGINT); ``failed`` when training raised (``error``
+was reached; ``interrupted`` after Ctrl-C (SIGINT); ``stopped`` when the caller's ``on_eval``
+hook ended training early (a pruned tuning trial); ``failed`` when training raised (``error``
 holds the exception's type and message; the exception propagates). A process that died without
 a word (SIGKILL, power loss) leaves ``running``.
 
@@ -63,9 +65,24 @@ __all__ = [
     "new_run_dir",
     "RunLock",
     "TrainResult",
+    "EVAL_COLUMNS",
+    "EVAL_HISTORY_SEED",
 ]
 
 RUNS_DIR = Path("runs")
+
+#: First episode seed of the periodic evaluations (eval.csv): episodes use seeds
+#: ``EVAL_HISTORY_SEED + i`` for ``i < eval_episodes``.
+EVAL_HISTORY_SEED = 10_000
+
+#: Columns of eval.csv, in order.
+EVAL_COLUMNS: tuple[str, ...] = ("timesteps", "wall_s", "mean_return", "std_return",
+                                 "success_rate", "mean_length", "rms_tracking_error")
+
+#: ``on_eval(row) -> bool``: called after each periodic evaluation with eval.csv's row as numbers
+#: (``success_rate`` and ``rms_tracking_error`` ``None`` when not reported); ``False`` stops
+#: training (status ``stopped``).
+EvalHook = Callable[[dict], bool]
 
 
 def algo_class(algo: str) -> type:
@@ -410,11 +427,11 @@ class _StopOnSignal:
 
 
 def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSignal,
-                    progress: bool, wall: Callable[[], float]):
+                    progress: bool, wall: Callable[[], float], on_eval: EvalHook | None = None):
     """SB3 callbacks: stop on SIGINT, progress bar, checkpoints, evaluation history.
 
     ``wall()`` is the run's training wall time so far (s), continued across resumes; it is the
-    ``wall_s`` column of eval.csv.
+    ``wall_s`` column of eval.csv. ``on_eval`` sees each evaluation; ``False`` stops training.
     """
     from stable_baselines3.common.callbacks import (
         BaseCallback,
@@ -423,7 +440,7 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
         ProgressBarCallback,
     )
 
-    from wheelgym.agents.evaluate import evaluate_policy_episodes
+    from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
     from wheelgym.agents.policies import AgentPolicy
 
     n_envs = model.get_env().num_envs
@@ -441,17 +458,17 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
             self.path = run_dir / "eval.csv"
             self.best = -math.inf
             self.env: gym.Env | None = None
+            self.columns: list[str] = list(EVAL_COLUMNS)
 
         def _on_training_start(self) -> None:
             if not self.path.exists():
                 with self.path.open("w", newline="") as f:
-                    csv.writer(f).writerow(
-                        ["timesteps", "wall_s", "mean_return", "std_return", "success_rate",
-                         "mean_length"]
-                    )
-            else:  # resumed: keep the best so far
+                    csv.writer(f).writerow(self.columns)
+            else:  # resumed: keep the best so far, and the file's own columns (older runs)
                 with self.path.open() as f:
-                    rows = list(csv.DictReader(f))
+                    reader = csv.DictReader(f)
+                    rows = list(reader)
+                    self.columns = list(reader.fieldnames or self.columns)
                 if rows:
                     self.best = max(float(r["mean_return"]) for r in rows)
 
@@ -460,20 +477,27 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
                 return True
             if self.env is None:
                 self.env = make_single_env(config)
+                self.with_rms = "rms_tracking_error" in applicable_metrics(self.env)
             norm = self.model.get_vec_normalize_env()
             policy = AgentPolicy(self.model, norm)
-            seeds = [10_000 + i for i in range(config.eval_episodes)]
+            seeds = [EVAL_HISTORY_SEED + i for i in range(config.eval_episodes)]
             episodes = evaluate_policy_episodes(self.env, policy, seeds, record=False)
             rets = np.array([e.ret for e in episodes])
             succ = [e.success for e in episodes if e.success is not None]
-            rate = float(np.mean(succ)) if succ else float("nan")
+            rate = float(np.mean(succ)) if succ else None
+            errs = [e.rms_tracking_error for e in episodes if e.rms_tracking_error is not None]
+            rms = float(np.mean(errs)) if errs and self.with_rms else None
             mean_len = float(np.mean([e.length for e in episodes]))
+            wall_s = wall()
+            cells = {
+                "timesteps": self.num_timesteps, "wall_s": f"{wall_s:.2f}",
+                "mean_return": f"{rets.mean():.6g}", "std_return": f"{rets.std():.6g}",
+                "success_rate": "" if rate is None else f"{rate:.4f}",
+                "mean_length": f"{mean_len:.1f}",
+                "rms_tracking_error": "" if rms is None else f"{rms:.6g}",
+            }
             with self.path.open("a", newline="") as f:
-                csv.writer(f).writerow(
-                    [self.num_timesteps, f"{wall():.2f}",
-                     f"{rets.mean():.6g}", f"{rets.std():.6g}",
-                     "" if math.isnan(rate) else f"{rate:.4f}", f"{mean_len:.1f}"]
-                )
+                csv.writer(f).writerow([cells.get(c, "") for c in self.columns])
             self.logger.record("eval/mean_reward", float(rets.mean()))
             if succ:
                 self.logger.record("eval/success_rate", rate)
@@ -482,6 +506,13 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
                 self.model.save(run_dir / "best_model.zip")
                 if norm is not None:
                     norm.save(str(run_dir / "best_vecnormalize.pkl"))
+            if on_eval is not None:
+                row = {"timesteps": int(self.num_timesteps), "wall_s": wall_s,
+                       "mean_return": float(rets.mean()), "std_return": float(rets.std()),
+                       "success_rate": rate, "mean_length": mean_len,
+                       "rms_tracking_error": rms}
+                if not on_eval(row):
+                    return False
             return True
 
         def _on_training_end(self) -> None:
@@ -528,7 +559,8 @@ def _save(model, run_dir: Path) -> None:
 
 
 def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool,
-           info: dict, reset_num_timesteps: bool) -> TrainResult:
+           info: dict, reset_num_timesteps: bool,
+           on_eval: EvalHook | None = None) -> TrainResult:
     """Train to ``total`` steps; save and record the status in run.json whatever happens."""
     t0 = time.perf_counter()
     wall_before = float(info.get("wall_s", 0.0))
@@ -542,7 +574,8 @@ def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool
             info.pop("notes", None)
             _write_json(run_dir / "run.json", info)
             callbacks = _make_callbacks(config, run_dir, model, stop, progress,
-                                        lambda: wall_before + time.perf_counter() - t0)
+                                        lambda: wall_before + time.perf_counter() - t0,
+                                        on_eval)
             if remaining > 0:
                 model.learn(
                     total_timesteps=remaining,
@@ -551,7 +584,8 @@ def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool
                     tb_log_name="tb",
                 )
             done = model.num_timesteps >= total
-            status = "interrupted" if stop.requested and not done else "finished"
+            status = ("finished" if done else "interrupted" if stop.requested else
+                      "stopped" if on_eval is not None else "finished")
         except KeyboardInterrupt:
             status = "interrupted"
         except BaseException as e:
@@ -590,12 +624,14 @@ def train(
     runs_root: str | Path | None = None,
     progress: bool = True,
     verbose: int = 0,
+    on_eval: EvalHook | None = None,
 ) -> TrainResult:
     """Train from a config (or its path) into a new run folder.
 
     ``seed`` and ``total_timesteps`` override the config (the saved ``config.yml`` holds the
     values used). ``run_dir`` names the folder (it must not exist or be empty); otherwise one is
-    made under ``runs_root`` (default ``runs/``).
+    made under ``runs_root`` (default ``runs/``). ``on_eval`` (see :data:`EvalHook`) sees each
+    periodic evaluation and may stop training (status ``stopped``).
     """
     import torch
 
@@ -640,7 +676,7 @@ def train(
             "versions": _versions(),
             "wall_s": 0.0,
         }
-        return _learn(config, model, out, config.n_timesteps, progress, info, True)
+        return _learn(config, model, out, config.n_timesteps, progress, info, True, on_eval)
     finally:
         lock.release()
 

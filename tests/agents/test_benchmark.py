@@ -1,0 +1,198 @@
+"""``wheelgym benchmark``: resumable CSV rows, steps to the baseline's level, the Markdown table
+from a CSV, learning curves, and the configs it runs."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import wheelgym.agents.train as train_mod  # noqa: E402
+from wheelgym.agents.benchmark import (  # noqa: E402
+    COLUMNS,
+    _append_row,
+    _scaled_eval_freq,
+    default_configs,
+    format_table,
+    plot_curves,
+    read_rows,
+    run_jobs,
+    steps_to_baseline,
+)
+from wheelgym.agents.config import load_config  # noqa: E402
+from wheelgym.cli import main  # noqa: E402
+
+ENV_ID = "wheelgym/ThreeWheel-v0"
+
+
+def _write_config(tmp_path: Path, name: str, task: str) -> Path:
+    data = {
+        ENV_ID: {"policy": "MlpPolicy", "n_envs": 2, "n_timesteps": 100_000, "normalize": True,
+                 "n_steps": 128, "batch_size": 128, "n_epochs": 1,
+                 "policy_kwargs": {"net_arch": [16, 16]}},
+        "wheelgym": {"algo": "ppo", "env_kwargs": {"task": task, "action_mode": "velocity"},
+                     "seed": 0, "eval_freq": 25_000, "eval_episodes": 2, "checkpoint_freq": 0},
+    }
+    path = tmp_path / f"{name}.yml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_benchmark_resumes_and_skips_finished_rows(tmp_path, monkeypatch, capsys):
+    goal = _write_config(tmp_path, "tiny-goal", "goal")
+    track = _write_config(tmp_path, "tiny-track", "track")
+    out = tmp_path / "results" / "training.csv"
+    runs = tmp_path / "runs"
+    calls: list[int] = []
+    real_train = train_mod.train
+
+    def counting_train(*args, **kwargs):
+        calls.append(1)
+        return real_train(*args, **kwargs)
+
+    monkeypatch.setattr(train_mod, "train", counting_train)
+    kw = dict(seeds=1, episodes=2, budget=512, csv_path=out, runs_root=runs)
+    first = run_jobs([goal, track], **kw)
+    assert first.written == 2 and first.skipped == 0 and not first.failed and len(calls) == 2
+    rows = read_rows(out)
+    assert [r["config"] for r in rows] == ["tiny-goal", "tiny-track"]
+    with out.open() as f:
+        assert tuple(next(csv.reader(f))) == COLUMNS
+    by = {r["config"]: r for r in rows}
+    assert by["tiny-goal"]["agent_rms"] == "" and by["tiny-goal"]["baseline_rms"] == ""
+    assert float(by["tiny-track"]["agent_rms"]) > 0 and float(by["tiny-track"]["baseline_rms"]) > 0
+    for r in rows:
+        assert r["n_timesteps"] == "512" and r["episodes"] == "2" and r["seed"] == "0"
+        assert float(r["train_s"]) > 0 and float(r["cpu_s"]) > 0
+        assert r["baseline_internal_force"] != ""  # ThreeWheel has one
+        run_dir = Path(r["run_dir"])
+        assert run_dir.parent == runs and (run_dir / "eval.csv").is_file()
+
+    # Again, through the command line: nothing trains, the table comes from the CSV.
+    capsys.readouterr()
+    rc = main(["benchmark", str(goal), str(track), "--seeds", "1", "--episodes", "2",
+               "--budget", "512", "--csv", str(out), "--runs-root", str(runs)])
+    text = capsys.readouterr().out
+    assert rc == 0 and len(calls) == 2, text
+    assert "0 run(s) to do, 2 already" in text and "| tiny-track | PPO | 512 | 1 | 2 |" in text
+    assert len(read_rows(out)) == 2
+    # Another budget is another row.
+    again = run_jobs([goal], **{**kw, "budget": 256})
+    assert again.written == 1 and again.skipped == 0 and len(calls) == 3
+
+    png = tmp_path / "curves.png"
+    assert plot_curves(read_rows(out), [str(goal), "tiny-track"], png) == png
+    assert png.stat().st_size > 1000
+    capsys.readouterr()
+    assert main(["benchmark", "--table", "--csv", str(out), str(track)]) == 0
+    table = capsys.readouterr().out
+    assert "tiny-track" in table and "tiny-goal" not in table
+
+
+def test_table_from_a_known_csv(tmp_path):
+    path = tmp_path / "t.csv"
+    common = {"algo": "ppo", "episodes": "10", "random_success": "0", "baseline_success": "1"}
+    rows = [
+        {**common, "config": "ThreeWheel-goal-velocity", "seed": "0", "n_timesteps": "1000000",
+         "train_s": "10", "cpu_s": "12", "steps_to_baseline": "400000", "agent_success": "0.8",
+         "agent_return": "10", "baseline_return": "12", "random_return": "-5"},
+        {**common, "config": "ThreeWheel-goal-velocity", "seed": "1", "n_timesteps": "1000000",
+         "train_s": "14", "cpu_s": "18", "steps_to_baseline": "", "agent_success": "0.6",
+         "agent_return": "8", "baseline_return": "12", "random_return": "-5"},
+        {**common, "config": "ThreeWheel-track-velocity", "seed": "0", "n_timesteps": "500000",
+         "train_s": "100", "cpu_s": "110", "steps_to_baseline": "250000", "agent_success": "1",
+         "agent_rms": "0.009", "baseline_rms": "0.017", "agent_return": "-5.5",
+         "baseline_return": "-8.3", "random_return": "-60"},
+    ]
+    for r in reversed(rows):  # the table sorts by config
+        _append_row(path, r)
+    expected = "\n".join([
+        "| config | algo | steps | seeds | episodes | agent success [%] | baseline success [%] "
+        "| random success [%] | agent RMS [m] | baseline RMS [m] | agent return | baseline "
+        "return | random return | steps to baseline | train [s/seed] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| ThreeWheel-goal-velocity | PPO | 1000000 | 2 | 10 | 70 ± 10 | 100 | 0 | - | - "
+        "| 9.0 ± 1.0 | 12.0 | -5.0 | 400k (1/2) | 12 |",
+        "| ThreeWheel-track-velocity | PPO | 500000 | 1 | 10 | 100 | 100 | 0 | 0.009 | 0.017 "
+        "| -5.5 | -8.3 | -60.0 | 250k | 100 |",
+        "",
+        "Agent: mean ± std over training seeds of each seed's mean over the evaluation episodes; "
+        "baseline and random: mean over the same episodes. Steps to baseline: first periodic "
+        "evaluation within 5 points of the baseline's success (track: within 2x its RMS error), "
+        "mean over the seeds that reached it. Total CPU time 2.3 min (3 runs).",
+    ])
+    assert format_table(read_rows(path)) == expected
+
+
+def test_steps_to_baseline_reads_the_evaluation_history(tmp_path):
+    path = tmp_path / "eval.csv"
+    path.write_text("timesteps,wall_s,mean_return,std_return,success_rate,mean_length,"
+                    "rms_tracking_error\n"
+                    "100,1,0,0,0.5,10,0.1\n200,2,0,0,0.95,10,0.05\n300,3,0,0,1.0,10,0.039\n")
+    assert steps_to_baseline(path, 1.0, None) == 200  # within 5 points
+    assert steps_to_baseline(path, 0.4, None) == 100
+    assert steps_to_baseline(path, 1.0, 0.02) == 300  # track: RMS within 2x
+    assert steps_to_baseline(path, None, 0.01) is None
+    assert steps_to_baseline(tmp_path / "missing.csv", 1.0, None) is None
+    # Older eval.csv files (no RMS column) read too.
+    old = tmp_path / "old.csv"
+    old.write_text("timesteps,wall_s,mean_return,std_return,success_rate,mean_length\n"
+                   "100,1,0,0,1.0,10\n")
+    assert steps_to_baseline(old, 1.0, None) == 100 and steps_to_baseline(old, 1.0, 0.1) is None
+
+
+def test_rows_are_appended_whole_and_a_torn_line_is_skipped(tmp_path):
+    path = tmp_path / "r.csv"
+    _append_row(path, {"config": "a", "seed": 0, "n_timesteps": 10, "episodes": 1})
+    with path.open("a") as f:
+        f.write("b,ppo,0,1")  # a writer killed mid-line
+    _append_row(path, {"config": "c", "seed": 0, "n_timesteps": 10, "episodes": 1})
+    assert [r["config"] for r in read_rows(path)] == ["a", "c"]
+    other = tmp_path / "other.csv"
+    other.write_text("config,seed,n_timesteps\n")
+    with pytest.raises(ValueError, match="lacks columns"):
+        _append_row(other, {"config": "a"})
+
+
+def test_every_config_loads_and_scales_its_evaluation():
+    paths = default_configs()
+    assert len(paths) >= 30
+    for p in paths:
+        c = load_config(p)
+        assert _scaled_eval_freq(c, c.n_timesteps) == c.eval_freq
+        small = _scaled_eval_freq(c, 10_000)
+        assert 1 <= small <= max(10_000, c.n_envs * c.hyperparams.get("n_steps", 1))
+
+
+def test_benchmark_errors_are_one_line(tmp_path, capsys):
+    cfg = _write_config(tmp_path, "tiny-goal", "goal")
+    missing = tmp_path / "none.csv"
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    bad = [
+        ["benchmark", "--table", "--csv", str(missing)],
+        ["benchmark", "--table", "--budget", "5", "--csv", str(missing)],
+        ["benchmark", "--curves", str(tmp_path), str(cfg)],
+        ["benchmark", str(cfg), "--csv", str(tmp_path)],
+        ["benchmark", str(cfg), "--workers", "0"],
+        ["benchmark", str(cfg), "--runs-root", str(afile), "--csv", str(missing)],
+    ]
+    for argv in bad:
+        capsys.readouterr()
+        rc = _run_main(argv)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2, argv
+        assert len(err) == 1 and err[0].startswith("wheelgym"), (argv, err)
+    assert not missing.exists() and not os.path.exists(tmp_path / "runs")
+
+
+def _run_main(argv: list[str]) -> int:
+    try:
+        return main(argv)
+    except SystemExit as e:  # argparse
+        return e.code if isinstance(e.code, int) else 1
