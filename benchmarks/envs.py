@@ -16,8 +16,8 @@ import gymnasium as gym
 import numpy as np
 
 import wheelgym  # noqa: F401  (registers the ids)
-from wheelgym.envs.registration import env_id
 from wheelgym.envs.robots import available_robots
+from wheelgym.registration import env_id
 
 TARGETS = {"ThreeWheel": 0.3, "SkidSteer": 0.5, "CasterAGV": 0.3, "DiffDrive": 1.0,
            "Unicycle": 1.0, "Bicycle": 1.0, "Ackermann": 1.0}

@@ -32,7 +32,7 @@ import gymnasium as gym
 import numpy as np
 
 import wheelgym  # noqa: F401  (registers the ids)
-from wheelgym.envs.registration import env_id
+from wheelgym.registration import env_id
 
 ROBOTS = ("ThreeWheel", "SkidSteer", "DiffDrive")
 NS = (1, 16, 256, 1024, 4096)

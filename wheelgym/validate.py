@@ -1,4 +1,4 @@
-"""Validation report of the physics models (issue 2): ``python -m wheelgym.validate``.
+"""Validation report of the physics models: ``python -m wheelgym.validate``.
 
 Runs each check on the default parameters of every model exported by :mod:`wheelgym.models`
 that supports it and prints one Markdown table, ``check | model | measured | bound | pass``.
@@ -58,7 +58,7 @@ __all__ = [
 #: (the negative real root of ``|1 + z + z^2/2 + z^3/6 + z^4/24| = 1``).
 RK4_REAL_STABILITY_LIMIT = 2.785293563405282
 
-#: The bounds of the issue. Order ratio: 16 +- 25 %.
+#: Pass bounds of the checks. Order ratio: 16 +- 25 %.
 BOUNDS = {
     "stiffness": RK4_REAL_STABILITY_LIMIT,
     "order_lo": 12.0,

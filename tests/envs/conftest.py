@@ -5,27 +5,16 @@ from __future__ import annotations
 import gymnasium as gym
 
 import wheelgym  # noqa: F401
-from wheelgym.envs.registration import env_id
 from wheelgym.envs.robots import available_robots, get_spec
+from wheelgym.registration import env_id
 
 ROBOTS = available_robots()
 DYNAMIC = [r for r in ROBOTS if get_spec(r).n_motor > 0]
 TASKS = ("goal", "track", "navigate")
 
 
-def velocity_available() -> bool:
-    try:
-        from wheelgym.control.controllers import TwistController  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def modes(robot: str) -> tuple[str, ...]:
-    spec = get_spec(robot)
-    if spec.n_motor > 0 and not velocity_available():
-        return ("torque",)
-    return spec.action_modes
+    return get_spec(robot).action_modes
 
 
 def combos() -> list[tuple[str, str, str]]:

@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from tests.envs.conftest import DYNAMIC, ROBOTS, TASKS, combos, make
-from wheelgym.envs.registration import env_id
+from wheelgym.registration import env_id
 
 
 def test_every_robot_registered():

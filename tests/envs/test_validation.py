@@ -1,4 +1,4 @@
-"""Construction and step validation of the environments (issue 14, items 5, 8, 9, 12, 15)."""
+"""Construction and step validation of the environments."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import pytest
 
 import wheelgym  # noqa: F401
 from wheelgym.envs.core import MAX_CTRL_DT, MAX_SUBSTEPS
-from wheelgym.envs.registration import env_id
 from wheelgym.envs.robots._body import SPEED_BOUND
 from wheelgym.models.three_wheel import ThreeWheelParams
+from wheelgym.registration import env_id
 
 
 def make(robot: str, **kw) -> gym.Env:
@@ -24,7 +24,7 @@ def make_vec(robot: str, num_envs: int, **kw):
     return gym.make_vec(env_id(robot), num_envs=num_envs, **kw)
 
 
-# ---------------------------------------------------------------- item 5: randomize ranges
+# ---------------------------------------------------------------- randomize ranges
 @pytest.mark.parametrize(("robot", "randomize", "key"), [
     ("SkidSteer", {"x_icr": (-0.5, 0.1)}, "x_icr"),  # x_icr must lie in (-a, b)
     ("SkidSteer", {"mass": (0.5, 1.5), "x_icr": (-0.1, 0.3)}, "x_icr"),
@@ -49,7 +49,7 @@ def test_randomize_unstable_extreme_is_refused():
         make("ThreeWheel", params={"d": 0.002}, randomize={"caster_trail": (0.5, 1.0)})
 
 
-# ---------------------------------------------------------------- item 8: divergence
+# ---------------------------------------------------------------- divergence
 def test_unstable_parameters_refused_at_construction():
     with pytest.raises(ValueError, match="stability region.*sim_dt <"):
         make("ThreeWheel", action_mode="velocity", params={"d": 1.2e-3})
@@ -107,7 +107,7 @@ def test_diverging_rows_caught_in_the_block_kernel():
     assert seen[::2].any() and not seen[1::2].any()
 
 
-# ---------------------------------------------------------------- item 9: work per call
+# ---------------------------------------------------------------- work per call
 def test_substeps_per_control_step_bounded():
     with pytest.raises(ValueError, match=f"at most {MAX_SUBSTEPS}.*sim_dt"):
         make("ThreeWheel", sim_dt=1e-9)
@@ -120,7 +120,7 @@ def test_ctrl_dt_bounded(ctrl_dt):
         make("DiffDrive", ctrl_dt=ctrl_dt)
 
 
-# ---------------------------------------------------------------- item 12: lax validation
+# ---------------------------------------------------------------- lax validation
 BAD_ACTIONS = [np.array(["0.1", "0.2"]), np.array([0.1 + 1j, 0.2]), np.array([True, False]),
                ["0.1", "0.2"]]
 
@@ -164,7 +164,7 @@ def test_reward_weights_type_checked(value):
         make("DiffDrive", reward_weights={"success": value})
 
 
-# ---------------------------------------------------------------- item 15: terminal bonus
+# ---------------------------------------------------------------- terminal bonus
 def _put_goal_under_robot(core, row: int = 0) -> None:
     core.task.goal[row] = core.X[row, :3]  # at rest on the goal: the next step succeeds
 

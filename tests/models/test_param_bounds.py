@@ -1,4 +1,4 @@
-"""Physical bounds of every parameter dataclass (issue 14, item 11)."""
+"""Physical bounds of every parameter dataclass."""
 
 from __future__ import annotations
 

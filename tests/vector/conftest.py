@@ -7,21 +7,15 @@ from typing import Any
 import numpy as np
 
 import wheelgym  # noqa: F401
-from wheelgym.envs.registration import env_id
 from wheelgym.envs.robots import available_robots, get_spec
+from wheelgym.registration import env_id
 
 ROBOTS = available_robots()
 TASKS = ("goal", "track", "navigate")
 
 
 def modes(robot: str) -> tuple[str, ...]:
-    spec = get_spec(robot)
-    if spec.n_motor > 0:
-        try:
-            from wheelgym.control import TwistController  # noqa: F401
-        except ImportError:
-            return ("torque",)
-    return spec.action_modes
+    return get_spec(robot).action_modes
 
 
 def combos() -> list[tuple[str, str, str]]:

@@ -1,4 +1,4 @@
-"""Robot descriptions for the environments; a robot appears once its model exists."""
+"""Robot descriptions for the environments (one :class:`RobotSpec` per robot)."""
 
 from __future__ import annotations
 
@@ -23,17 +23,12 @@ _cache: dict[str, RobotSpec] = {}
 
 
 def get_spec(name: str) -> RobotSpec:
-    """The :class:`RobotSpec` of ``name``; ``ValueError`` listing the available robots."""
+    """The :class:`RobotSpec` of ``name``; ``ValueError`` listing the robots."""
     if name in _cache:
         return _cache[name]
     if name not in ROBOT_MODULES:
         raise ValueError(f"unknown robot {name!r}; valid robots: {available_robots()}")
-    try:
-        spec = _load(ROBOT_MODULES[name])
-    except ImportError as exc:  # its model has not landed
-        raise ValueError(
-            f"robot {name!r} is not available ({exc}); valid robots: {available_robots()}"
-        ) from exc
+    spec = _load(ROBOT_MODULES[name])
     _cache[name] = spec
     return spec
 
@@ -44,7 +39,7 @@ def _load(target: str) -> RobotSpec:
 
 
 def available_robots() -> list[str]:
-    """Robots whose model files exist (see :func:`wheelgym.registration.available_robots`)."""
+    """Every robot (:func:`wheelgym.registration.available_robots`)."""
     from wheelgym.registration import available_robots as _available
 
     return _available()

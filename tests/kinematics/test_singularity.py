@@ -193,7 +193,7 @@ def test_singularity_map_example(tmp_path, capsys):
     import runpy
     from pathlib import Path
 
-    script = Path(__file__).resolve().parents[1] / "examples" / "singularity_map.py"
+    script = Path(__file__).resolve().parents[2] / "examples" / "singularity_map.py"
     main = runpy.run_path(str(script))["main"]
     out = tmp_path / "map.png"
     main(["--out", str(out), "--n", "21"])
