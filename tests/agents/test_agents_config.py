@@ -10,6 +10,7 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
+from wheelgym.agents.common import algo_kwargs, build_model, make_train_env  # noqa: E402
 from wheelgym.agents.config import (  # noqa: E402
     ALGOS,
     TrainConfig,
@@ -17,7 +18,6 @@ from wheelgym.agents.config import (  # noqa: E402
     load_config,
     parse_config,
 )
-from wheelgym.agents.train import algo_kwargs, build_model, make_train_env  # noqa: E402
 
 CONFIGS = sorted((Path(__file__).resolve().parents[2] / "configs").glob("*.yml"))
 

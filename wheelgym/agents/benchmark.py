@@ -42,7 +42,12 @@ from typing import Any
 
 import numpy as np
 
+import wheelgym.agents.train as train_mod
+from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import TrainConfig, configs_dir, load_config
+from wheelgym.agents.evaluate import _figure, applicable_metrics, evaluate_policy_episodes
+from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
+from wheelgym.agents.train import EVAL_HISTORY_SEED
 
 __all__ = [
     "COLUMNS",
@@ -130,10 +135,6 @@ def _score(episodes: list | None, applicable: Sequence[str]) -> dict[str, float 
 
 def _baseline_scores(path: Path, episodes: int) -> dict[str, Any]:
     """Baseline and random on the evaluation seeds, and the baseline on eval.csv's seeds."""
-    from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
-    from wheelgym.agents.policies import RandomPolicy, make_baseline
-    from wheelgym.agents.train import EVAL_HISTORY_SEED, make_single_env
-
     config = load_config(path)
     seeds = [EVAL_SEED + i for i in range(episodes)]
     env = make_single_env(config)
@@ -211,10 +212,6 @@ class _Job:
 
 def _run_job(job: _Job) -> dict | None:
     """Train and score one (config, seed); the CSV row, or ``None`` when interrupted."""
-    from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
-    from wheelgym.agents.policies import load_agent
-    from wheelgym.agents.train import make_single_env, train
-
     cpu0 = time.process_time()
     config = load_config(job.path)
     changes: dict[str, Any] = {"seed": job.seed, "n_timesteps": job.budget,
@@ -222,7 +219,8 @@ def _run_job(job: _Job) -> dict | None:
     if os.environ.get(_WORKER_ENV):
         changes["torch_threads"] = 1
     config = config.replace(**changes)
-    result = train(config, runs_root=job.runs_root, progress=False)
+    # Looked up on the module at call time, so a wrapped train_mod.train is the one called.
+    result = train_mod.train(config, runs_root=job.runs_root, progress=False)
     if result.status != "finished":
         return None
     agent = load_agent(result.run_dir / "model.zip", config.algo,
@@ -635,8 +633,6 @@ def plot_curves(rows: Sequence[dict[str, str]], configs: Sequence[str], out: str
     """Learning curves of ``configs`` (names or config paths: their stems) from the rows' run
     folders: success rate (track: RMS error) against steps and against wall seconds, mean over
     seeds with the min-max spread, and the baseline's level on the same evaluation seeds."""
-    from wheelgym.agents.evaluate import _figure
-
     names = [Path(c).stem for c in configs] if configs else sorted({r["config"] for r in rows})
     known = sorted({r["config"] for r in rows})
     bad = [n for n in names if n not in known]

@@ -26,13 +26,27 @@ exponentially; merge keys ``<<: *x`` are aliases too) and nothing in them is eva
 ``policy_kwargs`` holds plain values (``net_arch: [64, 64]``; ``activation_fn`` by a name from
 :data:`ACTIVATIONS`). Every unknown key and every bad value raises ``ValueError`` (one line)
 naming the file, the key and the valid choices.
+
+The ``wheelgym`` block and the RL Zoo's own keys (``policy``, ``n_envs``, ``n_timesteps``,
+``normalize``, ``noise_type``, ``noise_std``) have a schema here. The algorithm's keys are read
+from Stable-Baselines3's signatures (imported on first use, then cached per algorithm): the
+keyword arguments of the algorithm class, and for ``policy_kwargs`` those of its ``MlpPolicy``
+class, whose annotated type has a plain YAML form (numbers, booleans, strings, lists, mappings,
+``"lin_<number>"`` for a schedule); arguments the run supplies (env, seed, device, ...) and
+class-typed ones are left out, except ``activation_fn`` (by name). Values are checked against
+the annotated type, then against the ranges of :data:`_LIMITS` where one is given.
 """
 
 from __future__ import annotations
 
+import collections.abc
 import copy
 import dataclasses
+import functools
+import inspect
 import math
+import types
+import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -204,13 +218,6 @@ def _schedule(lo_open: bool = True):
     return check
 
 
-def _optional(check):
-    def wrapped(v: Any):
-        return None if v is None else check(v)
-
-    return wrapped
-
-
 def _ent_coef(v: Any) -> float | str:
     if isinstance(v, str):
         if v == "auto" or (v.startswith("auto_") and _is_float_str(v[5:])):
@@ -252,19 +259,6 @@ def _net_arch(v: Any) -> list | dict:
     return layers(v)
 
 
-_POLICY_KWARGS: dict[str, Any] = {
-    "net_arch": _net_arch,
-    "activation_fn": _choice(*ACTIVATIONS),
-    "log_std_init": _float(),
-    "ortho_init": _bool,
-    "squash_output": _bool,
-    "full_std": _bool,
-    "use_expln": _bool,
-    "n_critics": _int(1),
-    "share_features_extractor": _bool,
-}
-
-
 def _check_table(v: dict, table: dict[str, Any]) -> dict:
     """Validate each entry of ``v`` with ``table[key]``; an unknown key lists the valid ones."""
     out = {}
@@ -276,14 +270,6 @@ def _check_table(v: dict, table: dict[str, Any]) -> dict:
         except ValueError as e:
             raise ValueError(f"{k} {e}") from None
     return out
-
-
-def _policy_kwargs(v: Any) -> dict:
-    if not isinstance(v, dict):
-        raise ValueError(
-            f"must be a mapping of plain values (e.g. {{net_arch: [64, 64]}}), got {v!r}"
-        )
-    return _check_table(v, _POLICY_KWARGS)
 
 
 _NORMALIZE_KWARGS: dict[str, Any] = {
@@ -304,79 +290,219 @@ def _normalize(v: Any) -> bool | dict:
     return _check_table(v, _NORMALIZE_KWARGS)
 
 
-# Keys of the RL Zoo block that are not algorithm keyword arguments.
+# Keys of the RL Zoo block that are not algorithm keyword arguments (``policy_kwargs`` is added
+# per algorithm, from its policy class).
 _ZOO_KEYS: dict[str, Any] = {
     "policy": _choice("MlpPolicy"),
     "n_envs": _int(1),
     "n_timesteps": _int(1),
     "normalize": _normalize,
-    "policy_kwargs": _policy_kwargs,
     "noise_type": _choice("normal", "ornstein-uhlenbeck"),
     "noise_std": _float(0.0),
 }
 
-_COMMON: dict[str, Any] = {
+# --------------------------------------------------------------------------------------------
+# algorithm keys from Stable-Baselines3's signatures
+# --------------------------------------------------------------------------------------------
+
+# Keyword arguments of the algorithm that a config does not set: the run supplies them, or the
+# config has its own key for them (``policy_kwargs``; ``action_noise``: noise_type, noise_std).
+_SUPPLIED = frozenset({"self", "policy", "env", "seed", "device", "tensorboard_log", "verbose",
+                       "_init_setup_model", "policy_kwargs", "action_noise"})
+# ... and per algorithm, those the layout keeps out: ``n_steps`` is the on-policy rollout
+# length here, not the n-step returns of SB3's off-policy algorithms.
+_NOT_EXPOSED: dict[str, frozenset[str]] = {"sac": frozenset({"n_steps"}),
+                                           "td3": frozenset({"n_steps"})}
+# Keyword arguments of the policy class that the algorithm passes itself.
+_POLICY_SUPPLIED = frozenset({"self", "observation_space", "action_space", "lr_schedule",
+                              "use_sde"})
+
+# Ranges and string forms beyond the annotated types, checked after them (``None`` passes).
+_LIMITS: dict[str, Any] = {
     "learning_rate": _schedule(),
+    "clip_range": _schedule(),
+    "clip_range_vf": _schedule(),
     "gamma": _float(0.0, 1.0, lo_open=True),
-    "use_sde": _bool,
+    "gae_lambda": _float(0.0, 1.0),
+    "tau": _float(0.0, 1.0, lo_open=True),
+    "n_steps": _int(1),
+    "batch_size": _int(1),
+    "n_epochs": _int(1),
+    "buffer_size": _int(1),
+    "learning_starts": _int(0),
+    "gradient_steps": _int(1, allow=(-1,)),
+    "target_update_interval": _int(1),
+    "policy_delay": _int(1),
     "sde_sample_freq": _int(-1),
     "stats_window_size": _int(1),
+    "train_freq": _train_freq,
+    "ent_coef": _ent_coef,
+    "target_entropy": _target_entropy,
+    "vf_coef": _float(0.0),
+    "max_grad_norm": _float(0.0, lo_open=True),
+    "target_kl": _float(0.0, lo_open=True),
+    "rms_prop_eps": _float(0.0, lo_open=True),
+    "target_policy_noise": _float(0.0),
+    "target_noise_clip": _float(0.0),
+    "n_critics": _int(1),
+}
+_ALGO_LIMITS: dict[str, dict[str, Any]] = {"ppo": {"n_steps": _int(2), "batch_size": _int(2)}}
+# Policy arguments written in a plain form of our own instead of their annotated type.
+_PLAIN_FORMS: dict[str, Any] = {
+    "net_arch": _net_arch,
+    "activation_fn": _choice(*ACTIVATIONS),  # torch.nn class by name
 }
 
-_ALGO_KEYS: dict[str, dict[str, Any]] = {
-    "ppo": {
-        **_COMMON,
-        "n_steps": _int(2),
-        "batch_size": _int(2),
-        "n_epochs": _int(1),
-        "gae_lambda": _float(0.0, 1.0),
-        "clip_range": _schedule(),
-        "clip_range_vf": _optional(_schedule()),
-        "normalize_advantage": _bool,
-        "ent_coef": _float(0.0),
-        "vf_coef": _float(0.0),
-        "max_grad_norm": _float(0.0, lo_open=True),
-        "target_kl": _optional(_float(0.0, lo_open=True)),
-    },
-    "a2c": {
-        **_COMMON,
-        "n_steps": _int(1),
-        "gae_lambda": _float(0.0, 1.0),
-        "ent_coef": _float(0.0),
-        "vf_coef": _float(0.0),
-        "max_grad_norm": _float(0.0, lo_open=True),
-        "rms_prop_eps": _float(0.0, lo_open=True),
-        "use_rms_prop": _bool,
-        "normalize_advantage": _bool,
-    },
-    "sac": {
-        **_COMMON,
-        "buffer_size": _int(1),
-        "learning_starts": _int(0),
-        "batch_size": _int(1),
-        "tau": _float(0.0, 1.0, lo_open=True),
-        "train_freq": _train_freq,
-        "gradient_steps": _int(1, allow=(-1,)),
-        "ent_coef": _ent_coef,
-        "target_update_interval": _int(1),
-        "target_entropy": _target_entropy,
-        "use_sde_at_warmup": _bool,
-    },
-    "td3": {
-        **_COMMON,
-        "buffer_size": _int(1),
-        "learning_starts": _int(0),
-        "batch_size": _int(1),
-        "tau": _float(0.0, 1.0, lo_open=True),
-        "train_freq": _train_freq,
-        "gradient_steps": _int(1, allow=(-1,)),
-        "policy_delay": _int(1),
-        "target_policy_noise": _float(0.0),
-        "target_noise_clip": _float(0.0),
-    },
-}
-for _k in ("use_sde", "sde_sample_freq"):
-    _ALGO_KEYS["td3"].pop(_k)
+
+def _str(v: Any) -> str:
+    if not isinstance(v, str):
+        raise ValueError(f"must be a string, got {v!r}")
+    return v
+
+
+def _lin(v: Any) -> str:
+    """A schedule (``Callable[[float], float]``) in its plain form ``"lin_<number>"``."""
+    if isinstance(v, str):
+        head, _, tail = v.partition("_")
+        if head == "lin" and tail:
+            try:
+                float(tail)
+                return v
+            except ValueError:
+                pass
+    raise ValueError(f"must be 'lin_<number>', got {v!r}")
+
+
+def _list_of(item) -> Any:
+    def check(v: Any) -> list:
+        if not isinstance(v, list):
+            raise ValueError(f"must be a list, got {v!r}")
+        return [item(x) for x in v]
+
+    return check
+
+
+def _tuple_of(items: tuple) -> Any:
+    def check(v: Any) -> list:  # YAML has lists; algo_kwargs makes the tuple
+        if not isinstance(v, list) or len(v) != len(items):
+            raise ValueError(f"must be a list of {len(items)} values, got {v!r}")
+        return [c(x) for c, x in zip(items, v, strict=True)]
+
+    return check
+
+
+def _mapping_of(value) -> Any:
+    def check(v: Any) -> dict:
+        if not isinstance(v, dict):
+            raise ValueError(f"must be a mapping, got {v!r}")
+        return {k: value(x) for k, x in v.items()}
+
+    return check
+
+
+def _any(v: Any) -> Any:
+    return v  # plain already (_plain)
+
+
+def _union(options: list, optional: bool) -> Any:
+    def check(v: Any) -> Any:
+        if v is None and optional:
+            return None
+        errors = []
+        for c in options:
+            try:
+                return c(v)
+            except ValueError as e:
+                errors.append(str(e).removeprefix("must be ").rsplit(", got ", 1)[0])
+        if optional:
+            errors.append("null")
+        raise ValueError(f"must be {' or '.join(errors)}, got {v!r}")
+
+    return check
+
+
+def _from_annotation(ann: Any) -> Any | None:
+    """A checker of a YAML value for an SB3 type annotation; ``None`` when no plain value
+    has that type (classes, spaces, environments, devices)."""
+    if ann is Any:
+        return _any
+    simple = {bool: _bool, int: _int(), float: _float(), str: _str}
+    if isinstance(ann, type) and ann in simple:
+        return simple[ann]
+    origin, args = typing.get_origin(ann), typing.get_args(ann)
+    if origin in (typing.Union, types.UnionType):
+        optional = type(None) in args
+        options = [_from_annotation(a) for a in args if a is not type(None)]
+        options = [c for c in options if c is not None]
+        return _union(options, optional) if options else None
+    if origin is list and len(args) == 1:
+        item = _from_annotation(args[0])
+        return None if item is None else _list_of(item)
+    if origin is tuple and args and Ellipsis not in args:
+        items = tuple(_from_annotation(a) for a in args)
+        return None if None in items else _tuple_of(items)
+    if origin is dict and len(args) == 2 and args[0] is str:
+        value = _from_annotation(args[1])
+        return None if value is None else _mapping_of(value)
+    if origin is collections.abc.Callable and args == ([float], float):
+        return _lin
+    return None
+
+
+def _limited(check, limit) -> Any:
+    def wrapped(v: Any) -> Any:
+        v = check(v)
+        return v if v is None else limit(v)
+
+    return wrapped
+
+
+def _signature_table(fn: Any, skip: frozenset[str], limits: Mapping[str, Any],
+                     plain_forms: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """``keyword -> checker`` for the keyword arguments of ``fn`` that a config can set."""
+    try:
+        params = inspect.signature(fn, eval_str=True).parameters
+    except Exception:  # an annotation that does not evaluate: read them as written
+        params = inspect.signature(fn).parameters
+    table: dict[str, Any] = {}
+    for name, p in params.items():
+        if name in skip or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if plain_forms and name in plain_forms:
+            table[name] = plain_forms[name]
+            continue
+        check = _from_annotation(p.annotation)
+        if check is None:
+            continue
+        table[name] = _limited(check, limits[name]) if name in limits else check
+    return table
+
+
+@functools.cache
+def _algo_table(algo: str) -> dict[str, Any]:
+    """``key -> checker`` of an algorithm's keys in the RL Zoo block, from the signatures of
+    its SB3 class and of its ``MlpPolicy`` (for ``policy_kwargs``); imports SB3."""
+    try:
+        import stable_baselines3 as sb3
+    except ImportError as e:
+        raise ValueError(f"checking the hyperparameters needs stable-baselines3 "
+                         f"(pip install -e '.[train]'): {e}") from None
+    cls = getattr(sb3, algo.upper())
+    limits = {**_LIMITS, **_ALGO_LIMITS.get(algo, {})}
+    table = _signature_table(cls.__init__, _SUPPLIED | _NOT_EXPOSED.get(algo, frozenset()),
+                             limits)
+    policy_table = _signature_table(cls.policy_aliases["MlpPolicy"].__init__, _POLICY_SUPPLIED,
+                                    limits, _PLAIN_FORMS)
+
+    def policy_kwargs(v: Any) -> dict:
+        if not isinstance(v, dict):
+            raise ValueError(
+                f"must be a mapping of plain values (e.g. {{net_arch: [64, 64]}}), got {v!r}"
+            )
+        return _check_table(v, policy_table)
+
+    return {**table, "policy_kwargs": policy_kwargs}
+
 
 _WHEELGYM_KEYS: dict[str, Any] = {
     "algo": _choice(*ALGOS),
@@ -579,7 +705,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: env_kwargs must be a mapping")
     wg = {**_WHEELGYM_DEFAULTS, **wg, "env_kwargs": dict(env_kwargs)}
 
-    table = {**_ZOO_KEYS, **_ALGO_KEYS[algo]}
+    table = {**_ZOO_KEYS, **_algo_table(algo)}
     block = _check_block(block, table, f"{source}: {env_id} ({algo})")
     if "n_timesteps" not in block:
         raise ValueError(f"{source}: {env_id}: missing key 'n_timesteps'")

@@ -42,6 +42,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from wheelgym.agents.common import make_single_env
+from wheelgym.agents.config import load_config
+from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
+
 __all__ = [
     "Episode",
     "run_episode",
@@ -551,10 +555,6 @@ def evaluate_run(
     ``video_<policy>.mp4`` with ``video``, into ``out_dir`` (default ``<run>/eval``, made new if
     it exists). ``model``: ``"final"`` (model.zip) or ``"best"``.
     """
-    from wheelgym.agents.config import load_config
-    from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
-    from wheelgym.agents.train import make_single_env
-
     if not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
     if model not in ("final", "best"):

@@ -15,6 +15,8 @@ from typing import Any
 
 import gymnasium as gym
 
+from wheelgym.agents.common import algo_class
+
 __all__ = ["AgentPolicy", "RandomPolicy", "make_baseline", "load_agent"]
 
 
@@ -79,8 +81,6 @@ def load_vecnormalize(path: str | Path) -> Any | None:
 def load_agent(model_path: str | Path, algo: str, vecnorm_path: str | Path | None = None,
                device: str = "cpu") -> AgentPolicy:
     """Load ``model.zip`` (and the statistics next to it) as an :class:`AgentPolicy`."""
-    from wheelgym.agents.train import algo_class
-
     try:
         model = algo_class(algo).load(str(model_path), device=device)
     except Exception as e:
@@ -96,7 +96,7 @@ def make_baseline(env: gym.Env) -> Any:
     Raises ``ValueError`` when the env has no baseline (e.g. a non-wheelgym env).
     """
     try:
-        from wheelgym.control import baseline
+        from wheelgym.envs.baseline import baseline
     except ImportError as e:
         raise ValueError(f"no analytic baseline available: {e}") from None
     if inspect.ismodule(baseline):  # the submodule wheelgym.control.baseline

@@ -56,7 +56,10 @@ from typing import Any
 
 import yaml
 
+from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import WHEELGYM_BLOCK, TrainConfig, load_config, parse_config
+from wheelgym.agents.evaluate import applicable_metrics
+from wheelgym.agents.train import train
 
 __all__ = [
     "SEARCH_SPACES",
@@ -399,8 +402,6 @@ def tune(
     """
     import optuna
 
-    from wheelgym.agents.train import make_single_env, train
-
     if not isinstance(config, TrainConfig):
         config = load_config(config)
     algo = config.algo if algo is None else algo
@@ -428,8 +429,6 @@ def tune(
     env = make_single_env(config)  # a bad env id or env_kwargs fails here, not in every trial
     try:
         if metric == "rms":
-            from wheelgym.agents.evaluate import applicable_metrics
-
             if "rms_tracking_error" not in applicable_metrics(env):
                 raise ValueError(f"metric 'rms' needs the track task; {config.source} has "
                                  f"task {config.task!r} (use 'return' or 'success')")
