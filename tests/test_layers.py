@@ -2,8 +2,8 @@
 
 Layers, lowest first (a module may import its own layer and the ones below)::
 
-    _numba_cache, integrators, registration  <-  models  <-  kinematics  <-  control  <-  world
-    <-  tasks  <-  render  <-  envs  <-  vector  <-  agents  <-  validate, cli
+    _numba_cache, integrators, registration, safe_yaml  <-  models  <-  kinematics  <-  control
+    <-  world  <-  tasks  <-  render  <-  envs  <-  vector  <-  agents  <-  validate, cli
 
 ``wheelgym/__init__.py`` stands outside the layers (it registers the ids and reaches the
 subpackages lazily). Every ``import`` statement counts: module level, function-local and
@@ -27,7 +27,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "wheelgym"
 
 RANK = {
-    "_numba_cache": 0, "integrators": 0, "registration": 0,
+    "_numba_cache": 0, "integrators": 0, "registration": 0, "safe_yaml": 0,
     "models": 1, "kinematics": 2, "control": 3, "world": 4, "tasks": 5, "render": 6,
     "envs": 7, "vector": 8, "agents": 9, "validate": 10, "cli": 10,
 }
@@ -54,25 +54,35 @@ def _module_name(path: Path) -> str:
 MODULES = {_module_name(p): p for p in sorted(PKG.rglob("*.py"))}
 
 
-def _imports(name: str, path: Path) -> set[str]:
-    """The wheelgym modules that ``name`` imports (``from pkg import sub`` counts as ``sub``)."""
+def _import_statements(name: str, path: Path):
+    """Each wheelgym import of module ``name``: ``(target, names)`` with the absolute target
+    module (relative imports resolved) and the imported names (``None`` for ``import x``)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    out: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            out.update(a.name for a in node.names if a.name.split(".")[0] == "wheelgym")
+            for a in node.names:
+                if a.name.split(".")[0] == "wheelgym":
+                    yield a.name, None, a.asname or a.name
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")[: len(package.split(".")) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
-            if target.split(".")[0] != "wheelgym":
-                continue
-            for a in node.names:
-                sub = f"{target}.{a.name}"
-                out.add(sub if sub in MODULES else target)
+            if target.split(".")[0] == "wheelgym":
+                yield target, [(a.name, a.asname or a.name) for a in node.names], None
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """The wheelgym modules that ``name`` imports (``from pkg import sub`` counts as ``sub``)."""
+    out: set[str] = set()
+    for target, names, _ in _import_statements(name, path):
+        if names is None:
+            out.add(target)
+        for n, _ in names or ():
+            sub = f"{target}.{n}"
+            out.add(sub if sub in MODULES else target)
     return {m for m in out if m in MODULES and m != name}
 
 
@@ -168,30 +178,19 @@ def _private_uses() -> dict[tuple[str, str], set[str]]:
     out: dict[tuple[str, str], set[str]] = {}
     for name, path in MODULES.items():
         tree = ast.parse(path.read_text(encoding="utf-8"))
-        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         alias: dict[str, str] = {}
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module or ""
-                if target.split(".")[0] != "wheelgym":
-                    continue
-                foreign = _layer(target) != _layer(name)
-                if foreign and any(p.startswith("_") for p in target.split(".")[1:]):
-                    out.setdefault((name, target), set()).add("<module>")
-                for a in node.names:
-                    full = f"{target}.{a.name}"
-                    if full in MODULES:
-                        alias[a.asname or a.name] = full
-                    elif a.name.startswith("_") and foreign:
-                        out.setdefault((name, target), set()).add(a.name)
-            elif isinstance(node, ast.Import):
-                for a in node.names:
-                    if a.name.split(".")[0] == "wheelgym":
-                        alias[a.asname or a.name] = a.name
+        for target, names, bound in _import_statements(name, path):
+            if names is None:
+                alias[bound] = target
+                continue
+            foreign = _layer(target) != _layer(name)
+            if foreign and any(p.startswith("_") for p in target.split(".")[1:]):
+                out.setdefault((name, target), set()).add("<module>")
+            for n, local in names:
+                if f"{target}.{n}" in MODULES:
+                    alias[local] = f"{target}.{n}"
+                elif n.startswith("_") and foreign:
+                    out.setdefault((name, target), set()).add(n)
         for node in ast.walk(tree):
             if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
                     and node.value.id in alias and node.attr.startswith("_")

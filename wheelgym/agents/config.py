@@ -53,6 +53,8 @@ from typing import Any
 
 import yaml
 
+from wheelgym import safe_yaml
+
 __all__ = [
     "ALGOS",
     "ACTIVATIONS",
@@ -87,56 +89,14 @@ _ON_POLICY = ("ppo", "a2c")
 MAX_SEED = 2**32 - 1
 
 
-class _NoAliasSafeLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that refuses aliases (``*name``), so no document can expand."""
-
-    def compose_node(self, parent, index):  # type: ignore[override]
-        if self.check_event(yaml.AliasEvent):
-            event = self.peek_event()
-            raise yaml.composer.ComposerError(
-                None, None,
-                f"YAML aliases are not allowed in configs (found *{event.anchor}; write the "
-                "value out instead)",
-                event.start_mark,
-            )
-        return super().compose_node(parent, index)
-
-
-def _one_line(text: Any) -> str:
-    return " ".join(str(text).split())
-
-
-def _yaml_message(e: yaml.YAMLError) -> str:
-    """A YAML error as one line: what went wrong and where (no source snippet)."""
-    if isinstance(e, yaml.MarkedYAMLError):
-        what = "; ".join(_one_line(x) for x in (e.context, e.problem) if x) or "syntax error"
-        mark = e.problem_mark or e.context_mark
-        if mark is not None:
-            what += f" (line {mark.line + 1}, column {mark.column + 1})"
-        return what
-    return _one_line(e)
-
-
 def safe_load_config_yaml(path: str | Path) -> Any:
-    """Read a config YAML file like ``yaml.safe_load``, refusing aliases.
+    """Read a config YAML file like ``yaml.safe_load``, refusing aliases
+    (:func:`wheelgym.safe_yaml.load`).
 
     Raises ``ValueError`` (one line, naming the file) for unreadable files, invalid YAML and
     aliases.
     """
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: cannot read config: {_one_line(e)}") from None
-    loader = _NoAliasSafeLoader(text)
-    try:
-        return loader.get_single_data()
-    except yaml.YAMLError as e:
-        raise ValueError(f"{path}: not valid YAML: {_yaml_message(e)}") from None
-    except RecursionError:  # deeply nested flow collections
-        raise ValueError(f"{path}: not valid YAML: nested too deeply") from None
-    finally:
-        loader.dispose()
+    return safe_yaml.load(path, "config")
 
 
 # --------------------------------------------------------------------------------------------

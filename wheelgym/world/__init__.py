@@ -1,5 +1,7 @@
-"""The navigate task's world: arena walls, obstacles, collisions and range sensing."""
+"""The navigate task's world: arena walls, obstacles, collisions, range sensing and map files."""
 
 from wheelgym.world.arena import Arena, World, build_space, k_clearance, k_ranges, pymunk_ranges
+from wheelgym.world.maps import MAPS, MapArena, load_map
 
-__all__ = ["Arena", "World", "build_space", "k_ranges", "k_clearance", "pymunk_ranges"]
+__all__ = ["Arena", "World", "build_space", "k_ranges", "k_clearance", "pymunk_ranges", "MAPS",
+           "MapArena", "load_map"]
