@@ -20,7 +20,8 @@ def test_rgb_array_frames(robot, task):
     body = np.all(f0 == np.array(_BODY, dtype=np.uint8), axis=-1)
     assert body.sum() > 100  # the platform is drawn
     for _ in range(10):
-        env.step(np.full(env.action_space.shape, 0.6))
+        if env.step(np.full(env.action_space.shape, 0.6))[2]:
+            break  # terminated (overspeed, lost): the frame of the last state
     f1 = env.render()
     moved = np.all(f1 == np.array(_BODY, dtype=np.uint8), axis=-1)
     assert moved.sum() > 100 and np.any(moved != body)
@@ -50,6 +51,7 @@ def test_record_video(tmp_path):
                       str(tmp_path / "videos"), episode_trigger=lambda e: True, disable_logger=True)
     env.reset(seed=0)
     for _ in range(10):
-        env.step(np.full(4, 0.5))
+        if env.step(np.full(4, 0.5))[2]:
+            break
     env.close()
     assert list((tmp_path / "videos").glob("*.mp4"))

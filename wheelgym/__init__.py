@@ -2,14 +2,19 @@
 
 ``import wheelgym`` registers the ``wheelgym/<Robot>-v0`` ids and loads nothing heavy: the
 subpackages (``wheelgym.models``, ``wheelgym.control``, ``wheelgym.envs``, ...) are imported on
-first attribute access, so ``wheelgym.control.baseline(env)`` works after a bare
-``import wheelgym`` without loading numba or the models at start-up.
+first attribute access, so ``wheelgym.baseline(env)`` (the analytic baseline policy,
+:mod:`wheelgym.envs.baseline`) works after a bare ``import wheelgym`` without loading numba or
+the models at start-up.
 """
 
 from __future__ import annotations
 
 import importlib
 from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from wheelgym.envs.baseline import BaselinePolicy
 
 __version__ = "0.1.0"
 
@@ -30,7 +35,7 @@ SUBMODULES = (
     "world",
 )
 
-__all__ = ["__version__", "register_envs", *SUBMODULES]
+__all__ = ["__version__", "baseline", "register_envs", *SUBMODULES]
 
 
 def register_envs() -> None:
@@ -38,6 +43,14 @@ def register_envs() -> None:
     from wheelgym.registration import register_envs as _register
 
     _register()
+
+
+def baseline(env: Any, **kwargs: Any) -> BaselinePolicy:
+    """The analytic baseline policy of a wheelgym environment (single, wrapped or vector):
+    :func:`wheelgym.envs.baseline.baseline`, imported on first call."""
+    from wheelgym.envs.baseline import baseline as _baseline
+
+    return _baseline(env, **kwargs)
 
 
 def __getattr__(name: str) -> ModuleType:

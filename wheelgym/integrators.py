@@ -21,12 +21,16 @@ for the signatures :data:`STEP1_SIG` / :data:`DERIV1_SIG` and report problems th
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import sys
+import types as types_
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import njit, prange, types
 from numba.extending import intrinsic, overload
 
 __all__ = [
@@ -44,6 +48,8 @@ __all__ = [
     "check_substeps",
     "STEP1_SIG",
     "DERIV1_SIG",
+    "ModelKernels",
+    "model_kernels",
 ]
 
 #: ``_k_step1(x, u, p, dt, n) -> status``: advance the 1-D state ``x`` in place.
@@ -338,6 +344,198 @@ def finite_status(x):  # pragma: no cover - compiled
         if not math.isfinite(x[j]):
             return STATUS_DIVERGED
     return STATUS_OK
+
+
+# ---------------------------------------------------------------------------- model kernels
+# The batched kernels of a model (``Model._k_deriv`` ...) are the same bodies for every model
+# but for the compiled pieces they call. Each body below is written once, reading those pieces
+# from the global slots ``DERIV_ONE`` (``f(x, u, p, out)``), ``DERIV_BLOCK`` (the branch-free
+# tuple derivative of rk4_block), ``POWER`` (its motor power), ``STATE_DIM(p)`` and ``NX``
+# (the state size), ``NU``, ``NP`` and ``BLOCK`` (the block step); :func:`model_kernels`
+# copies each body into the model's kernel module with the slots bound to that model's
+# pieces. The slots are globals, not closure variables: numba keys a cached kernel on its code
+# and closure contents (a dispatcher in a closure pickles with a fresh uuid in every process,
+# so a closure kernel would never load from the cache), and a copy filed under the kernel
+# module's own file and name gets its own cache entry there, dropped by that module's
+# ``_numba_cache.guard`` like its other kernels. (A compile error in a copy reports the line
+# numbers of the body here against the kernel module's file name.)
+DERIV_ONE: Any = None
+DERIV_BLOCK: Any = None
+POWER: Any = None
+STATE_DIM: Any = None
+BLOCK: Any = None
+NX = 0
+NU = 0
+NP = 0
+
+
+def _k_deriv(X, U, p, out):  # pragma: no cover - compiled per model
+    for i in range(X.shape[0]):
+        DERIV_ONE(X[i], U[i], p, out[i])
+
+
+def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled per model
+    """Derivative of one state into ``out``; a ``STATUS_*`` code."""
+    status = check_one(x, u, STATE_DIM(p), NU)
+    if status == 0:
+        DERIV_ONE(x, u, p, out)
+    return status
+
+
+def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled per model
+    """Advance one state ``x`` in place; a ``STATUS_*`` code."""
+    nx = STATE_DIM(p)
+    status = check_one(x, u, nx, NU)
+    if status == 0:
+        status = check_step_args(dt, n)
+    if status != 0:
+        return status
+    work = np.empty((5, nx))
+    rk4_inplace(DERIV_ONE, x, u, p, dt / n, n, work)
+    return finite_status(x)
+
+
+def _k_step_rows(X, U, p, h, n, out):  # pragma: no cover - compiled per model
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    work = np.empty((5, X.shape[1]))
+    for i in range(X.shape[0]):
+        out[i] = X[i]
+        rk4_inplace(DERIV_ONE, out[i], U[i], p, h, n, work)
+    return True
+
+
+def _k_step_rows_par(X, U, p, h, n, out):  # pragma: no cover - compiled per model
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    for i in prange(X.shape[0]):
+        work = np.empty((5, X.shape[1]))
+        out[i] = X[i]
+        rk4_inplace(DERIV_ONE, out[i], U[i], p, h, n, work)
+    return True
+
+
+def _k_block(X, U, P, h, n, out, work, b0):  # pragma: no cover - compiled per model
+    """Rows ``b0 .. b0 + LANES`` as one vectorised block (:func:`rk4_rows`): ``out`` the new
+    states, ``work`` the motor work (J); ``U`` is read in its first ``NU`` columns, ``P`` has
+    one row (shared) or one per row. Compiled with NumPy's error model: no exception branch
+    inside the vectorised loops (a division by zero gives inf/NaN, which the callers'
+    finiteness checks catch)."""
+    rk4_rows(DERIV_BLOCK, POWER, X, U, P, h, n, out, work, b0, NX, NU, NP)
+
+
+def _k_step_blocks(X, U, p, h, n, out):  # pragma: no cover - compiled per model
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b0 in range(0, X.shape[0], LANES):
+        BLOCK(X, U, P, h, n, out, work, b0)
+    return True
+
+
+def _k_step_blocks_par(X, U, p, h, n, out):  # pragma: no cover - compiled per model
+    if not (all_finite(X) and all_finite(U)):
+        return False
+    P = p.reshape((1, p.shape[0]))
+    work = np.empty(X.shape[0])
+    for b in prange((X.shape[0] + LANES - 1) // LANES):
+        BLOCK(X, U, P, h, n, out, work, b * LANES)
+    return True
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelKernels:
+    """The compiled batch kernels of one model (the ``Model._k_*`` attributes).
+
+    Attributes:
+        deriv: ``deriv(X, U, p, out)``, the derivative of each row.
+        deriv1: ``deriv1(x, u, p, out) -> status`` for one state (:data:`DERIV1_SIG`).
+        step1: ``step1(x, u, p, dt, n) -> status``, one state in place (:data:`STEP1_SIG`).
+        step: ``step(X, U, p, h, n, out) -> bool`` (``False``: a non-finite input).
+        step_par: the same over numba's threads (``prange``), the same bits per row.
+        block: ``block(X, U, P, h, n, out, work, b0)``, one vectorised block of
+            :data:`LANES` rows with the motor work (models with a tuple derivative only).
+    """
+
+    deriv: Any
+    deriv1: Any
+    step1: Any
+    step: Any
+    step_par: Any
+    block: Any = None
+
+
+def _const_dim(n: int):
+    """A compiled ``f(p) -> n`` for the ``STATE_DIM`` slot (inlined: never compiled alone)."""
+    def dim(p):  # pragma: no cover - compiled
+        return n
+    return njit(inline="always")(dim)
+
+
+def _instance(body, module: str, file: str, name: str, slots: dict, **options):
+    """``body`` compiled as ``module.name`` (cached next to ``file``) with ``slots`` bound."""
+    scope = dict(body.__globals__)
+    scope.update(slots)
+    scope["__name__"] = module
+    changes: dict = {"co_filename": file, "co_name": name}
+    if sys.version_info >= (3, 11):
+        changes["co_qualname"] = name
+    fn = types_.FunctionType(body.__code__.replace(**changes), scope, name)
+    fn.__qualname__ = name
+    fn.__doc__ = body.__doc__
+    sig = options.pop("sig", None)
+    if sig is not None:  # eager: compiled (or loaded from the cache) now
+        return njit(sig, cache=True, **options)(fn)
+    return njit(cache=True, **options)(fn)
+
+
+def model_kernels(
+    module: str,
+    file: str,
+    deriv_one: Any,
+    state_dim: int | Any,
+    nu: int,
+    deriv_block: Any = None,
+    power: Any = None,
+    npar: int = 0,
+) -> ModelKernels:
+    """Compile the generic kernel bodies above for one model; call from its kernel module.
+
+    Args:
+        module: the kernel module's ``__name__``; the kernels appear as its ``k_*`` functions.
+        file: its ``__file__``: numba caches the kernels next to it (and the module's
+            ``_numba_cache.guard`` drops them with its other kernels).
+        deriv_one: compiled ``f(x, u, p, out)``, the derivative of one state.
+        state_dim: the state size, or an inline compiled ``f(p) -> int`` where it depends on
+            the parameters (the kinematic models).
+        nu: the input size.
+        deriv_block: compiled branch-free tuple derivative ``ft(x, u, p) -> xdot`` (inline);
+            given, the batch steps run in vectorised blocks (:func:`rk4_block`), else a row
+            at a time (:func:`rk4_inplace`).
+        power: compiled ``pw(x, xdot, u, p)``, the motor power of the blocks' work integral.
+        npar: length of the packed parameter array (blocks only).
+    """
+    dim = _const_dim(state_dim) if isinstance(state_dim, int) else state_dim
+    slots = {"DERIV_ONE": deriv_one, "STATE_DIM": dim, "NU": nu}
+
+    def inst(body, name, **options):
+        return _instance(body, module, file, name, slots, **options)
+
+    deriv = inst(_k_deriv, "k_deriv")
+    deriv1 = inst(_k_deriv1, "k_deriv1", sig=DERIV1_SIG)
+    step1 = inst(_k_step1, "k_step1", sig=STEP1_SIG)
+    if deriv_block is None:
+        return ModelKernels(deriv, deriv1, step1, inst(_k_step_rows, "k_step"),
+                            inst(_k_step_rows_par, "k_step_par", parallel=True))
+    if not isinstance(state_dim, int):
+        raise TypeError("the block kernels need a constant state size")
+    # NX, NU, NP literal ints: rk4_block unrolls its tuples by them
+    slots.update(DERIV_BLOCK=deriv_block, POWER=power, NX=state_dim, NP=npar)
+    block = inst(_k_block, "k_block", error_model="numpy")
+    slots["BLOCK"] = block
+    return ModelKernels(deriv, deriv1, step1, inst(_k_step_blocks, "k_step"),
+                        inst(_k_step_blocks_par, "k_step_par", parallel=True), block)
 
 
 def rk4(

@@ -12,14 +12,17 @@ from __future__ import annotations
 
 import math
 import os
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:  # pragma: no cover
-    from wheelgym.envs.core import WheelCore
+from wheelgym.tasks.view import BatchView, RobotConstants
 
-__all__ = ["Renderer", "SIZE"]
+if TYPE_CHECKING:  # pragma: no cover
+    from wheelgym.tasks.tasks import Task
+
+__all__ = ["Renderer", "RenderView", "SIZE"]
 
 #: Frame width and height (pixels).
 SIZE = 600
@@ -40,6 +43,48 @@ _STEER = (150, 40, 200)
 _TEXT = (20, 20, 20)
 
 
+class RobotDrawing(RobotConstants, Protocol):
+    """The robot's constants and geometry the renderer reads (the envs' robot spec has them)."""
+
+    @property
+    def n_motor(self) -> int:
+        """Motors (0 for kinematic robots)."""
+
+    @property
+    def geometry(self) -> Callable[[Any], dict]:
+        """``geometry(params)``: footprint polygon, wheel radius and width."""
+
+    @property
+    def wheels(self) -> Callable[[np.ndarray, Any], np.ndarray]:
+        """``wheels(x, params)``: each wheel's body-frame position and angle ``(k, 3)``."""
+
+
+class RenderView(BatchView, Protocol):
+    """The batch as the renderer sees it: the task's view plus the task itself, the state and
+    the per-step buffers it draws (the environments' core implements it). The core's state
+    buffer ``X`` changes identity every step, so the renderer reads it when it draws."""
+
+    #: Task name and object (goal or reference, obstacles, range readings).
+    task_name: str
+    task: Task
+    #: State ``(N, nx)``, motor torques ``(N, m)``, input upper bounds ``(N, m)``.
+    X: np.ndarray
+    U: np.ndarray
+    HI: np.ndarray
+    #: Body twist ``(N, 3)``, motor work ``(N,)`` (J), tracking error ``(N,)`` (m).
+    twist: np.ndarray
+    energy: np.ndarray
+    err: np.ndarray
+    #: Control steps since each row's reset ``(N,)``.
+    steps: np.ndarray
+    #: Each row's parameters (the drawn ones under randomisation).
+    params_rows: Sequence[Any]
+
+    @property
+    def spec(self) -> RobotDrawing:
+        """The robot's constants and geometry."""
+
+
 def _headless() -> None:
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -47,9 +92,9 @@ def _headless() -> None:
 
 
 class Renderer:
-    """Draws row ``i`` of a :class:`~wheelgym.envs.core.WheelCore`."""
+    """Draws row ``i`` of a batch of robots (a :class:`RenderView`: the envs' core)."""
 
-    def __init__(self, core: WheelCore, mode: str, fps: int = 20) -> None:
+    def __init__(self, core: RenderView, mode: str, fps: int = 20) -> None:
         _headless()
         import pygame
 

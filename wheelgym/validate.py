@@ -30,7 +30,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from wheelgym.integrators import rk4
-from wheelgym.models._base import Model
+from wheelgym.models import Model
 
 __all__ = [
     "RK4_REAL_STABILITY_LIMIT",

@@ -1,5 +1,7 @@
 """Inverse dynamics, computed-torque controllers and closed-loop tracking (TW-6, SS-3/SS-4)."""
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -14,8 +16,8 @@ from wheelgym.control import (
     within_limits,
 )
 from wheelgym.integrators import rk4
+from wheelgym.kinematics.references import Circle, FigureEight
 from wheelgym.models import CasterAGV, SkidSteer, ThreeWheel
-from wheelgym.tasks.references import Circle, FigureEight
 
 TW_SCALED = ("m_b", "I_b", "m_w", "I_wy", "I_wz", "mu_r", "mu_p", "b_drive", "b_steer")
 SS_SCALED = ("m", "I", "mu_s", "mu_l")
@@ -88,7 +90,7 @@ def test_skid_steer_twist_controller_inverts_ss3():
     """With a negligible friction look-ahead the commanded rate is exactly k_v (cmd - eta)."""
     rng = np.random.default_rng(2)
     model = SkidSteer()
-    ctl = TwistController(model, gains={"k_v": 5.0, "ctrl_dt": 1e-12})
+    ctl = TwistController(model, gains={"k_v": 5.0}, ctrl_dt=1e-12)
     x = np.zeros((16, 5))
     x[:, 2:] = rng.normal(size=(16, 3)) * [1.0, 0.5, 0.5]
     cmd = rng.normal(size=(16, 2)) * 0.2
@@ -97,7 +99,7 @@ def test_skid_steer_twist_controller_inverts_ss3():
     np.testing.assert_allclose(tau[:, 0], tau[:, 1])  # equal halves (SS-4 min-norm)
     np.testing.assert_allclose(model.derivative(x, tau)[:, 3:5], 5.0 * (cmd - x[:, 3:5]),
                                rtol=0, atol=1e-9)
-    loads = TwistController(model, gains={"k_v": 5.0, "ctrl_dt": 1e-12}, distribution="loads")
+    loads = TwistController(model, gains={"k_v": 5.0}, ctrl_dt=1e-12, distribution="loads")
     tau_l, _ = loads.torques(x, cmd)
     n = model.normal_loads()
     np.testing.assert_allclose(tau_l[:, 0] / tau_l[:, 1], n[0] / n[1])
@@ -293,3 +295,34 @@ def test_invalid_arguments():
         make_controller(ThreeWheel(), "pid")
     with pytest.raises(ValueError, match="trajectory"):
         TrackingController(ThreeWheel()).predict(np.zeros(12))
+
+
+@pytest.mark.parametrize("model_cls", [ThreeWheel, SkidSteer, CasterAGV])
+def test_ctrl_dt_argument_and_batch_kernel(model_cls):
+    model = model_cls()
+    assert TwistController(model).ctrl_dt == model.default_ctrl_dt
+    ctl = TwistController(model, ctrl_dt=0.02)
+    assert ctl.ctrl_dt == 0.02 and ctl.gains.k_v == 1.0 / 0.02  # deadbeat at that period
+    kernel, args = ctl.batch_kernel()
+    rng = np.random.default_rng(5)
+    X = np.zeros((5, model.state_dim))
+    C = rng.normal(size=(5, ctl.command_dim)) * 0.3
+    out = np.empty((5, model.input_dim))
+    sat = np.empty(5, dtype=np.bool_)
+    assert kernel(X, C, *args, out, sat)
+    tau, s = ctl.torques(X, C)
+    assert np.array_equal(out, tau) and np.array_equal(sat, s)
+    twin = copy.deepcopy(ctl)  # the kernel is rebuilt, not copied
+    assert np.array_equal(twin.torques(X, C)[0], tau)
+
+
+def test_ctrl_dt_is_not_a_gain():
+    with pytest.raises(TypeError, match="ctrl_dt is not a TwistGains field"):
+        TwistController(ThreeWheel(), gains={"k_v": 1.0, "ctrl_dt": 0.05})
+    with pytest.raises(ValueError, match="ctrl_dt"):
+        TwistController(ThreeWheel(), ctrl_dt=-1.0)
+    with pytest.raises(ValueError, match="stable sampled loop"):
+        TwistController(ThreeWheel(), gains={"k_v": 20.0}, ctrl_dt=0.1)
+    with pytest.raises(ValueError, match="k_w_max < 2 / ctrl_dt"):
+        TrackingController(SkidSteer(), ctrl_dt=0.1)  # k_w_max 24 >= 2 / 0.1
+    assert TrackingController(SkidSteer(), ctrl_dt=0.02).ctrl_dt == 0.02

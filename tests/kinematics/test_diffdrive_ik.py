@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wheelgym.kinematics import body_velocity, rtr, wheel_speeds, wrap_angle
+from wheelgym.kinematics import body_velocity, plan_rtr, rtr, wheel_speeds, wrap_angle
 from wheelgym.models import DifferentialDrive
 
 
@@ -39,7 +39,7 @@ def test_rtr_reaches_the_goal_exactly(allow_reverse):
     for _ in range(20):
         start = np.array([*rng.uniform(-3, 3, 2), rng.uniform(-4, 4)])
         goal = np.array([*rng.uniform(-3, 3, 2), rng.uniform(-4, 4)])
-        plan = model.rtr(start, goal, allow_reverse=allow_reverse)
+        plan = plan_rtr(model, start, goal, allow_reverse=allow_reverse)
         assert [m.kind for m in plan] == ["rotate", "translate", "rotate"]
         x = _drive(model, start, plan)
         np.testing.assert_allclose(x[:2], goal[:2], rtol=0, atol=1e-12)
@@ -79,4 +79,4 @@ def test_rtr_bad_arguments():
         wheel_speeds(1.0, 1.0, 0.1, -0.5)
     forward_only = DifferentialDrive(speed_range=(0.0, 1.0))
     with pytest.raises(ValueError, match="symmetric"):
-        forward_only.rtr([0, 0, 0], [1, 1, 0])
+        plan_rtr(forward_only, [0, 0, 0], [1, 1, 0])

@@ -17,7 +17,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from wheelgym.models import ThreeWheel, ThreeWheelParams
-from wheelgym.models.three_wheel import RK4_REAL_STABILITY_LIMIT, noc_terms
+from wheelgym.models.noc_reference import noc_terms
+from wheelgym.models.three_wheel import RK4_REAL_STABILITY_LIMIT
 
 TIGHT = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-12}
 
@@ -399,7 +400,9 @@ def test_batched_equals_one_by_one():
 def test_fast_sincos_and_atan_match_libm():
     """The kernel's own sin/cos agree with libm to 2 ulp (near their zeros to 1e-31 |x|, the
     accuracy of the three-part pi/2), arctan to 1 ulp."""
-    from wheelgym.models.three_wheel import _atan, _sgn_s, _sincos
+    from wheelgym.models.kernels.three_wheel import atan as _atan
+    from wheelgym.models.kernels.three_wheel import sgn_s as _sgn_s
+    from wheelgym.models.kernels.three_wheel import sincos as _sincos
 
     rng = np.random.default_rng(5)
     xs = np.concatenate([rng.normal(size=2000) * s for s in (1e-3, 1.0, 4.0, 100.0, 1e5)])

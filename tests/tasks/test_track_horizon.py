@@ -45,7 +45,7 @@ def test_gym_make_long_time_limit_follows_the_moving_reference():
                    max_episode_steps=1000)
     ref = Circle(radius=1.2, speed=0.3)
     obs, _ = env.reset(seed=3, options={"reference": ref})
-    policy = wheelgym.control.baseline(env)
+    policy = wheelgym.baseline(env)
     core = env.unwrapped.core
     for k in range(1, 1001):
         act, _ = policy.predict(obs, deterministic=True)

@@ -80,6 +80,9 @@ def test_navigate_env_with_pymunk_backend_matches_analytic():
     np.testing.assert_allclose(oa, op, atol=1e-5)
     for _ in range(20):
         a = np.array([0.3, 0.3, 0.2, 0.2])
-        oa, *_ = ea.step(a)
-        op, *_ = ep.step(a)
+        oa, _, ta, *_ = ea.step(a)
+        op, _, tp, *_ = ep.step(a)
         np.testing.assert_allclose(oa, op, atol=1e-5)
+        assert ta == tp
+        if ta:
+            break

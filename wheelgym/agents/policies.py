@@ -1,14 +1,13 @@
 """Policies with the Stable-Baselines3 ``predict`` interface, so one loop scores them all.
 
 ``predict(obs, state=None, episode_start=None, deterministic=True) -> (action, state)`` is what
-SB3 models, :class:`AgentPolicy`, :class:`RandomPolicy` and ``wheelgym.control.baseline(env)``
+SB3 models, :class:`AgentPolicy`, :class:`RandomPolicy` and ``wheelgym.baseline(env)``
 share.
 """
 
 from __future__ import annotations
 
 import copy
-import inspect
 import pickle
 from pathlib import Path
 from typing import Any
@@ -16,6 +15,7 @@ from typing import Any
 import gymnasium as gym
 
 from wheelgym.agents.common import algo_class
+from wheelgym.envs.baseline import baseline
 
 __all__ = ["AgentPolicy", "RandomPolicy", "make_baseline", "load_agent"]
 
@@ -91,16 +91,10 @@ def load_agent(model_path: str | Path, algo: str, vecnorm_path: str | Path | Non
 
 
 def make_baseline(env: gym.Env) -> Any:
-    """``wheelgym.control.baseline(env)``: the analytic controller as a policy.
+    """``wheelgym.baseline(env)``: the analytic controller as a policy.
 
     Raises ``ValueError`` when the env has no baseline (e.g. a non-wheelgym env).
     """
-    try:
-        from wheelgym.envs.baseline import baseline
-    except ImportError as e:
-        raise ValueError(f"no analytic baseline available: {e}") from None
-    if inspect.ismodule(baseline):  # the submodule wheelgym.control.baseline
-        baseline = baseline.baseline
     try:
         policy = baseline(env)
     except (TypeError, ValueError, AttributeError) as e:

@@ -1,6 +1,9 @@
-"""Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4)."""
+"""Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4).
 
-from wheelgym.control.baseline import BaselinePolicy, baseline
+The analytic baseline *policy* that drives an environment is ``wheelgym.baseline(env)``
+(:mod:`wheelgym.envs.baseline`).
+"""
+
 from wheelgym.control.controllers import (
     TrackingController,
     TrackingGains,
@@ -27,8 +30,6 @@ from wheelgym.control.distribution import (
 )
 
 __all__ = [
-    "baseline",
-    "BaselinePolicy",
     "TrackingController",
     "TrackingGains",
     "TwistController",

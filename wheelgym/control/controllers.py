@@ -13,12 +13,13 @@ Torques over a limit are scaled down uniformly (every motor by the same factor, 
 generalized force keeps its direction) and reported as ``saturated``.
 
 Sampling. The controllers are designed for torques computed once per control step and held
-over it (``ctrl_dt = 0.05 s``, physics.md section 1):
+over it: the control period ``ctrl_dt`` is an argument of each controller (default the model's
+``default_ctrl_dt``, physics.md section 1), the environment passing its own.
 
 * twist loop ``udot_d = k_v (u_cmd - u)``: with the torque held, the twist error after one step
   is ``(1 - k_v ctrl_dt)`` times the error before, so the default ``k_v = 1 / ctrl_dt``
-  (20 1/s) is the deadbeat gain; the loop stays stable (``|1 - k_v ctrl_dt / g| < 1``) for any
-  plant-to-model inertia ratio ``g < 2``.
+  (20 1/s at 0.05 s) is the deadbeat gain; the loop stays stable
+  (``|1 - k_v ctrl_dt / g| < 1``) for any plant-to-model inertia ratio ``g < 2``.
 * friction is evaluated at the twist the step aims for (``u + udot_d ctrl_dt``), not at the
   current twist: where the arctan friction is steep (near zero slip) the plant settles within
   milliseconds to the twist at which friction balances the held torque, so that twist must be
@@ -46,11 +47,11 @@ from wheelgym import integrators as _integrators
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
 from wheelgym.integrators import all_finite
-from wheelgym.models import caster_agv as _ca
 from wheelgym.models import friction as _friction
-from wheelgym.models import skid_steer as _ss
-from wheelgym.models import three_wheel as _tw
 from wheelgym.models.caster_agv import CasterAGV
+from wheelgym.models.kernels import caster_agv as _ca
+from wheelgym.models.kernels import skid_steer as _ss
+from wheelgym.models.kernels import three_wheel as _tw
 from wheelgym.models.skid_steer import SkidSteer
 from wheelgym.models.three_wheel import ThreeWheel
 
@@ -72,24 +73,19 @@ __all__ = [
 # ---------------------------------------------------------------------------- gains
 @dataclasses.dataclass(frozen=True)
 class TwistGains:
-    """Twist-loop gains.
+    """Twist-loop gains (the control period is the controller's ``ctrl_dt`` argument).
 
-    | name    | default | unit | meaning                                                    |
-    |---------|---------|------|------------------------------------------------------------|
-    | k_v     | 20.0    | 1/s  | twist-error gain (``1/ctrl_dt``: deadbeat at 0.05 s)          |
-    | ctrl_dt | 0.05    | s    | control period the torques are held over (friction look-ahead) |
+    | name | default         | unit | meaning                                              |
+    |------|-----------------|------|------------------------------------------------------|
+    | k_v  | ``1 / ctrl_dt`` | 1/s  | twist-error gain (None: deadbeat at ``ctrl_dt``)      |
+
+    The sampled loop is stable for ``k_v ctrl_dt < 2`` (checked by the controller).
     """
 
-    k_v: float = 20.0
-    ctrl_dt: float = 0.05
+    k_v: float | None = None
 
     def __post_init__(self) -> None:
         _check_gains(self)
-        if self.k_v * self.ctrl_dt >= 2.0:
-            raise ValueError(
-                f"TwistGains: k_v * ctrl_dt = {self.k_v * self.ctrl_dt:.3g} must be < 2 for a "
-                "stable sampled loop (1 is deadbeat)"
-            )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,12 +96,10 @@ class TrackingGains:
     |---------|---------|-------------|--------------------------------------------------|
     | k_p     | 36.0    | 1/s²        | position and heading error gain                  |
     | k_d     | 12.0    | 1/s         | velocity and yaw-rate error gain                 |
-    | ctrl_dt | 0.05    | s           | control period (friction look-ahead)             |
     """
 
     k_p: float = 36.0
     k_d: float = 12.0
-    ctrl_dt: float = 0.05
 
     def __post_init__(self) -> None:
         _check_gains(self)
@@ -132,7 +126,8 @@ class UnicycleTrackingGains:
     | k_yaw   | 28.0    | 1/m   | heading error gain                               |
     | k_v     | 10.0    | 1/s   | twist-loop gain                                  |
     | k_w_max | 24.0    | 1/s   | cap on the total yaw-rate gain ``k_v + |v_r| k_yaw`` |
-    | ctrl_dt | 0.05    | s     | control period (friction look-ahead)             |
+
+    ``k_w_max < 2 / ctrl_dt`` is checked by the controller (its control period).
     """
 
     k_x: float = 4.0
@@ -140,24 +135,35 @@ class UnicycleTrackingGains:
     k_yaw: float = 28.0
     k_v: float = 10.0
     k_w_max: float = 24.0
-    ctrl_dt: float = 0.05
 
     def __post_init__(self) -> None:
         _check_gains(self)
-        if not self.k_v < self.k_w_max < 2.0 / self.ctrl_dt:
+        if not self.k_v < self.k_w_max:
             raise ValueError(
-                "UnicycleTrackingGains: need k_v < k_w_max < 2 / ctrl_dt, got "
-                f"k_v={self.k_v}, k_w_max={self.k_w_max}, ctrl_dt={self.ctrl_dt}"
+                "UnicycleTrackingGains: need k_v < k_w_max, got "
+                f"k_v={self.k_v}, k_w_max={self.k_w_max}"
             )
 
 
 def _check_gains(g: Any) -> None:
     for f in dataclasses.fields(g):
         v = getattr(g, f.name)
+        if v is None and f.default is None:  # a default derived from the control period
+            continue
         if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
             raise TypeError(f"{type(g).__name__}.{f.name} must be a number, got {v!r}")
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{type(g).__name__}.{f.name} must be positive and finite, got {v!r}")
+
+
+def _check_ctrl_dt(value: Any) -> float:
+    """``value`` as a positive finite control period (s)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"ctrl_dt must be a positive number of seconds, got {value!r}")
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"ctrl_dt must be a positive finite number of seconds, got {value!r}")
+    return v
 
 
 def _make_gains(cls: type, gains: Any) -> Any:
@@ -168,6 +174,9 @@ def _make_gains(cls: type, gains: Any) -> Any:
     if isinstance(gains, Mapping):
         valid = [f.name for f in dataclasses.fields(cls)]
         unknown = sorted(set(gains) - set(valid))
+        if "ctrl_dt" in unknown:
+            raise TypeError(f"ctrl_dt is not a {cls.__name__} field: pass it to the controller "
+                            "(e.g. TwistController(model, ctrl_dt=0.02))")
         if unknown:
             raise TypeError(f"unknown {cls.__name__} field(s) {unknown}; valid names: {valid}")
         return cls(**gains)
@@ -202,16 +211,16 @@ def _saturate(tau, tmax):  # pragma: no cover - compiled
 def _tw_force(x, ud0, ud1, ud2, uf0, uf1, uf2, p, J, Q):  # pragma: no cover - compiled
     """ThreeWheel inverse dynamics (TW-6): ``Q = M(psi) udot + c(psi, u) - Q_f(psi, u_f)``
     and the Jacobian ``J(psi)`` of TW-1 (rows in motor order)."""
-    cs = _tw._trig(x[6], x[7], x[8])
-    m00, m01, m02, m11, m12, m22 = _tw._mass(cs, p)
-    c0, c1, c2 = _tw._bias(cs, x[3], x[4], x[5], p)
-    f0, f1, f2 = _tw._friction(cs, uf0, uf1, uf2, p)
+    cs = _tw.trig(x[6], x[7], x[8])
+    m00, m01, m02, m11, m12, m22 = _tw.mass(cs, p)
+    c0, c1, c2 = _tw.bias(cs, x[3], x[4], x[5], p)
+    f0, f1, f2 = _tw.friction(cs, uf0, uf1, uf2, p)
     Q[0] = m00 * ud0 + m01 * ud1 + m02 * ud2 + c0 - f0
     Q[1] = m01 * ud0 + m11 * ud1 + m12 * ud2 + c1 - f1
     Q[2] = m02 * ud0 + m12 * ud1 + m22 * ud2 + c2 - f2
     for i in range(3):
-        g, h = _tw._gh(cs, i, p)
-        jd, js = _tw._jrows_i(g, h, p)
+        g, h = _tw.gh(cs, i, p)
+        jd, js = _tw.jacobian_rows(g, h, p)
         for j in range(3):
             J[i, j] = jd[j]
             J[3 + i, j] = js[j]
@@ -262,10 +271,10 @@ def _tw_track_one(x, pose, tw, rate, p, tmax, kp, kd, dt, mode, tau):  # pragma:
 @njit(cache=True)
 def _ss_sides(eta0, eta1, ed0, ed1, p, dt):  # pragma: no cover - compiled
     """SS-3 inverted: ``(tau_L, tau_R) = Bbar^-1 (Mbar etadot + Cbar eta + Rbar(eta_f))``."""
-    m, xicr, c, r = p[_ss._M], p[_ss._XICR], p[_ss._C], p[_ss._R]
-    r0, r1, _ = _ss._resist(eta0 + ed0 * dt, eta1 + ed1 * dt, p)
+    m, xicr, c, r = p[_ss.P_M], p[_ss.P_XICR], p[_ss.P_C], p[_ss.P_R]
+    r0, r1, _ = _ss.resist(eta0 + ed0 * dt, eta1 + ed1 * dt, p)
     f0 = m * ed0 + m * xicr * eta1 * eta1 + r0  # Cbar eta = m x_icr (wz^2, -wz vx)
-    f1 = (m * xicr * xicr + p[_ss._I]) * ed1 - m * xicr * eta1 * eta0 + r1
+    f1 = (m * xicr * xicr + p[_ss.P_I]) * ed1 - m * xicr * eta1 * eta0 + r1
     # Bbar = (1/r) [[1, 1], [-c, c]]  ->  tau_L + tau_R = r f0, tau_R - tau_L = r f1 / c
     s = r * f0
     dlt = r * f1 / c
@@ -321,7 +330,7 @@ def _unicycle_law(px, py, yaw, v, w, pose, tw, rate, gains):  # pragma: no cover
 @njit(cache=True)
 def _ss_track_one(x, pose, tw, rate, p, tmax, frac, gains, dt, tau):  # pragma: no cover
     """Kanayama's law on the ICR point P (no lateral slip), backstepped into computed torque."""
-    xicr = p[_ss._XICR]
+    xicr = p[_ss.P_XICR]
     yaw = x[2]
     px = x[0] + xicr * math.cos(yaw)  # P = CoM + R (x_icr, 0): moves like a unicycle (SS-1)
     py = x[1] + xicr * math.sin(yaw)
@@ -338,15 +347,15 @@ def _ca_sides(x, ed0, ed1, p, dt, tau):  # pragma: no cover - compiled
     v, w = x[3], x[4]
     cs = math.cos(x[5])
     sn = math.sin(x[5])
-    gc0, gc1, hc0, hc1 = _ca._gh(cs, sn, p)
-    n_l, n_r, n_c = _ca._loads(cs, sn, p)
-    m00, m01, m11 = _ca._mass(gc0, gc1, hc0, hc1, p)
-    b0, b1 = _ca._bias(gc0, gc1, hc0, hc1, v, w, p)
-    q0, q1 = _ca._friction(gc0, gc1, hc0, hc1, v + ed0 * dt, w + ed1 * dt, n_l, n_r, n_c, p)
+    gc0, gc1, hc0, hc1 = _ca.gh(cs, sn, p)
+    n_l, n_r, n_c = _ca.loads(cs, sn, p)
+    m00, m01, m11 = _ca.mass(gc0, gc1, hc0, hc1, p)
+    b0, b1 = _ca.bias(gc0, gc1, hc0, hc1, v, w, p)
+    q0, q1 = _ca.friction(gc0, gc1, hc0, hc1, v + ed0 * dt, w + ed1 * dt, n_l, n_r, n_c, p)
     f0 = m00 * ed0 + m01 * ed1 + b0 - q0
     f1 = m01 * ed0 + m11 * ed1 + b1 - q1
-    r = p[_ca._R]
-    c = p[_ca._C]
+    r = p[_ca.P_R]
+    c = p[_ca.P_C]
     tau[0] = 0.5 * r * (f0 - f1 / c)
     tau[1] = 0.5 * r * (f0 + f1 / c)
 
@@ -484,7 +493,7 @@ def inverse_dynamics(model: ThreeWheel, x: Any, udot: Any, u_friction: Any = Non
     (X2, UD2, UF2), lead = _flat([X, UD, UF])
     J = np.empty((X2.shape[0], 6, 3))
     Q = np.empty((X2.shape[0], 3))
-    _k_tw_inverse(X2, UD2, UF2, model._p, J, Q)
+    _k_tw_inverse(X2, UD2, UF2, model.packed, J, Q)
     return Q.reshape(lead + (3,)), J.reshape(lead + (6, 3))
 
 
@@ -511,11 +520,14 @@ class _Controller:
 
     _gains_type: type = TwistGains
 
-    def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm") -> None:
+    def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm", *,
+                 ctrl_dt: float | None = None) -> None:
         _check_model(model)
         self.model = model
-        self.gains = _make_gains(self._gains_for(model), gains)
-        self._p = model._p
+        #: Control period (s): the torques are held over it (friction look-ahead, sampled gains).
+        self.ctrl_dt = _check_ctrl_dt(model.default_ctrl_dt if ctrl_dt is None else ctrl_dt)
+        self.gains = self._resolve_gains(_make_gains(self._gains_for(model), gains))
+        self._p = model.packed
         if isinstance(model, ThreeWheel):
             if distribution not in DISTRIBUTIONS:
                 raise ValueError(
@@ -553,6 +565,22 @@ class _Controller:
     def _gains_for(self, model: Any) -> type:
         return self._gains_type
 
+    def _resolve_gains(self, gains: Any) -> Any:
+        """The gains with their period-derived defaults filled in, checked against
+        :attr:`ctrl_dt`."""
+        return gains
+
+    def batch_kernel(self) -> tuple[Any, tuple[Any, ...]]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __getstate__(self) -> dict[str, Any]:
+        """State for ``copy`` and ``pickle``, without the compiled kernel (rebuilt)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_kernel", "_args")}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._kernel, self._args = self.batch_kernel()
+
     @property
     def tau_max(self) -> np.ndarray:
         """Motor torque limits (N·m), motor order."""
@@ -575,12 +603,43 @@ class TwistController(_Controller):
 
     Args:
         model: the controller's model (its parameters may differ from the plant's).
-        gains: :class:`TwistGains`, a mapping of its fields, or None.
+        gains: :class:`TwistGains`, a mapping of its fields, or None (``k_v = 1 / ctrl_dt``).
         distribution: ThreeWheel: ``"min_norm"`` (default), ``"weighted"`` or
             ``"within_limits"``; SkidSteer: ``"min_norm"`` (equal halves) or ``"loads"``;
             CasterAGV: ``"min_norm"`` (two motors for two degrees of freedom: the torques are
             unique).
+        ctrl_dt: control period (s) the torques are held over; default the model's
+            ``default_ctrl_dt``. An environment passes its own.
+
+    ``gains.k_v`` holds the gain in use (``1 / ctrl_dt`` when not given).
     """
+
+    def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm", *,
+                 ctrl_dt: float | None = None) -> None:
+        super().__init__(model, gains, distribution, ctrl_dt=ctrl_dt)
+        self._kernel, self._args = self.batch_kernel()
+
+    def _resolve_gains(self, gains: TwistGains) -> TwistGains:
+        k_v = 1.0 / self.ctrl_dt if gains.k_v is None else float(gains.k_v)
+        if k_v * self.ctrl_dt >= 2.0:
+            raise ValueError(
+                f"TwistGains: k_v * ctrl_dt = {k_v * self.ctrl_dt:.3g} must be < 2 for a "
+                "stable sampled loop (1 is deadbeat)"
+            )
+        return dataclasses.replace(gains, k_v=k_v)
+
+    def batch_kernel(self) -> tuple[Any, tuple[Any, ...]]:
+        """The compiled batch kernel and its trailing arguments: ``kernel(X, C, *args, out,
+        sat)`` writes the torques ``out (n, m)`` and ``sat (n,)`` of states ``X (n, nx)`` and
+        commands ``C (n, k)`` (C-contiguous float64) and returns False if an input is not
+        finite. :meth:`torques` without its per-call checks, for callers that step a batch
+        (the environments' velocity mode)."""
+        k_v, dt = self.gains.k_v, self.ctrl_dt
+        if self._tw:
+            return _k_tw_twist, (self._p, self._tmax, k_v, dt, self._mode)
+        if self._ca:
+            return _k_ca_twist, (self._p, self._tmax, k_v, dt)
+        return _k_ss_twist, (self._p, self._tmax, self._frac, k_v, dt)
 
     @property
     def command_dim(self) -> int:
@@ -602,15 +661,7 @@ class TwistController(_Controller):
         n = X2.shape[0]
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
-        g = self.gains
-        if self._tw:
-            ok = _k_tw_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, self._mode, out, sat)
-        elif self._ca:
-            ok = _k_ca_twist(X2, C2, self._p, self._tmax, g.k_v, g.ctrl_dt, out, sat)
-        else:
-            ok = _k_ss_twist(X2, C2, self._p, self._tmax, self._frac, g.k_v, g.ctrl_dt, out,
-                             sat)
-        if not ok:
+        if not self._kernel(X2, C2, *self._args, out, sat):
             raise ValueError("x and twist_cmd must be finite")
         if lead == ():
             return out[0], sat[0]
@@ -645,22 +696,45 @@ class TrackingController(_Controller):
         model: the controller's model.
         gains: the gains dataclass for the model, a mapping, or None.
         distribution: as for :class:`TwistController`.
-        trajectory: optional :class:`~wheelgym.tasks.references.Reference` used by
+        trajectory: optional :class:`~wheelgym.kinematics.references.Reference` used by
             :meth:`predict` (evaluated at ``k * ctrl_dt`` on the k-th call since reset).
+        ctrl_dt: control period (s) the torques are held over; default the model's
+            ``default_ctrl_dt``.
     """
 
     def __init__(self, model: Any, gains: Any = None, distribution: str = "min_norm",
-                 trajectory: Any = None) -> None:
-        super().__init__(model, gains, distribution)
+                 trajectory: Any = None, *, ctrl_dt: float | None = None) -> None:
+        super().__init__(model, gains, distribution, ctrl_dt=ctrl_dt)
         if trajectory is not None and not hasattr(trajectory, "evaluate"):
             raise TypeError("trajectory must have an evaluate(t) method (a Reference)")
         self.trajectory = trajectory
         if not self._tw:
             g = self.gains
             self._gv = np.array([g.k_x, g.k_y, g.k_yaw, g.k_v, g.k_w_max])
+        self._kernel, self._args = self.batch_kernel()
 
     def _gains_for(self, model: Any) -> type:
         return TrackingGains if isinstance(model, ThreeWheel) else UnicycleTrackingGains
+
+    def _resolve_gains(self, gains: Any) -> Any:
+        if isinstance(gains, UnicycleTrackingGains) and not gains.k_w_max < 2.0 / self.ctrl_dt:
+            raise ValueError(
+                "UnicycleTrackingGains: need k_w_max < 2 / ctrl_dt, got "
+                f"k_w_max={gains.k_w_max}, ctrl_dt={self.ctrl_dt}"
+            )
+        return gains
+
+    def batch_kernel(self) -> tuple[Any, tuple[Any, ...]]:
+        """The compiled batch kernel and its trailing arguments: ``kernel(X, P, T, R, *args,
+        out, sat)`` writes the torques ``out (n, m)`` and ``sat (n,)`` of states ``X`` and
+        reference poses, twists and twist rates ``P, T, R (n, 3)`` (C-contiguous float64);
+        False if an input is not finite."""
+        g, dt = self.gains, self.ctrl_dt
+        if self._tw:
+            return _k_tw_track, (self._p, self._tmax, g.k_p, g.k_d, dt, self._mode)
+        if self._ca:
+            return _k_ca_track, (self._p, self._tmax, self._gv, dt)
+        return _k_ss_track, (self._p, self._tmax, self._frac, self._gv, dt)
 
     def torques(self, x: Any, ref_pose: Any, ref_twist: Any, ref_twist_rate: Any
                 ) -> tuple[np.ndarray, np.ndarray]:
@@ -684,16 +758,7 @@ class TrackingController(_Controller):
         n = X2.shape[0]
         out = np.empty((n, self.model.input_dim))
         sat = np.empty(n, dtype=np.bool_)
-        g = self.gains
-        if self._tw:
-            ok = _k_tw_track(X2, P2, T2, R2, self._p, self._tmax, g.k_p, g.k_d, g.ctrl_dt,
-                             self._mode, out, sat)
-        elif self._ca:
-            ok = _k_ca_track(X2, P2, T2, R2, self._p, self._tmax, self._gv, g.ctrl_dt, out, sat)
-        else:
-            ok = _k_ss_track(X2, P2, T2, R2, self._p, self._tmax, self._frac, self._gv,
-                             g.ctrl_dt, out, sat)
-        if not ok:
+        if not self._kernel(X2, P2, T2, R2, *self._args, out, sat):
             raise ValueError("x and the reference must be finite")
         if lead == ():
             return out[0], sat[0]
@@ -719,7 +784,7 @@ class TrackingController(_Controller):
         if episode_start is not None:
             t = np.where(np.asarray(episode_start, dtype=bool), 0.0, t)
         tau = self.act(obs, self.trajectory.evaluate(t))
-        self._t = t + self.gains.ctrl_dt
+        self._t = t + self.ctrl_dt
         return tau, None
 
 

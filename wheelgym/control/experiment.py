@@ -26,10 +26,10 @@ from wheelgym.control import controllers as _controllers
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.controllers import _tw_force
 from wheelgym.control.distribution import _wls_one
+from wheelgym.kinematics.references import QuinticCircle
 from wheelgym.models import friction as _friction
-from wheelgym.models import three_wheel as _tw
+from wheelgym.models.kernels import three_wheel as _tw
 from wheelgym.models.three_wheel import ThreeWheel
-from wheelgym.tasks.references import QuinticCircle
 
 __all__ = ["paper_experiment"]
 
@@ -40,10 +40,10 @@ _numba_cache.guard(__file__, _controllers.__file__, _distribution.__file__, _tw.
 @njit(cache=True)
 def _ik_rates(psi, u, p, out):  # pragma: no cover - compiled
     """TW-1: joint rates ``J(psi) u`` into out[0:3] (steer) and out[3:6] (drive)."""
-    cs = _tw._trig(psi[0], psi[1], psi[2])
+    cs = _tw.trig(psi[0], psi[1], psi[2])
     for i in range(3):
-        g, h = _tw._gh(cs, i, p)
-        jd, js = _tw._jrows_i(g, h, p)
+        g, h = _tw.gh(cs, i, p)
+        jd, js = _tw.jacobian_rows(g, h, p)
         out[i] = js[0] * u[0] + js[1] * u[1] + js[2] * u[2]
         out[3 + i] = jd[0] * u[0] + jd[1] * u[1] + jd[2] * u[2]
 
@@ -90,7 +90,7 @@ def _run(z0, TW, TR, p_plant, p_ctrl, h, out_z):  # pragma: no cover - compiled
                     zs[j] = z[j] + 0.5 * h * k[s - 1, j]
                 idx = 2 * n + 1
             _ref_torque(zs[12:15], TW[idx], TR[idx], p_ctrl, J, Q, tau)
-            _tw._deriv_one(zs[0:12], tau, p_plant, k[s, 0:12])
+            _tw.deriv_one(zs[0:12], tau, p_plant, k[s, 0:12])
             _ik_rates(zs[12:15], TW[idx], p_ctrl, rates)
             for j in range(6):
                 k[s, 12 + j] = rates[j]
@@ -110,7 +110,7 @@ def paper_experiment(
     Args:
         model: the robot (default parameters if None); it is both plant and controller model.
         dt: RK4 step (s); the default is the model's ``sim_dt``.
-        reference: trajectory (default :class:`~wheelgym.tasks.references.QuinticCircle`, the
+        reference: trajectory (default :class:`~wheelgym.kinematics.references.QuinticCircle`, the
             paper's 1 m circle in 60 s).
         psi0: initial steering angles (rad); the robot starts at rest at the reference's pose.
 
@@ -141,7 +141,7 @@ def paper_experiment(
     z0[6:9] = psi0
     z0[12:15] = psi0
     out = np.empty((n + 1, 18))
-    _run(z0, np.ascontiguousarray(tw_h), np.ascontiguousarray(tr_h), model._p, model._p,
+    _run(z0, np.ascontiguousarray(tw_h), np.ascontiguousarray(tr_h), model.packed, model.packed,
          float(dt), out)
     from wheelgym.control.controllers import inverse_dynamics
     from wheelgym.control.distribution import min_norm

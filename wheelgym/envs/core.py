@@ -167,8 +167,7 @@ class WheelCore:
             from wheelgym.control.controllers import TwistController
 
             # deadbeat twist loop at this control period (controllers.py module docstring)
-            self.controller = TwistController(
-                self.model, gains={"k_v": 1.0 / self.dt, "ctrl_dt": self.dt})
+            self.controller = TwistController(self.model, ctrl_dt=self.dt)
             self._bind_controller()
         else:
             self.action_dim = spec.n_motor
@@ -191,7 +190,7 @@ class WheelCore:
         # per-row state
         self.X = np.zeros((N, nx))
         self.Xo = np.zeros((N, nx))
-        p0 = self.model._p
+        p0 = self.model.packed
         self.P = np.tile(p0, (N, 1))
         lo, hi = spec.input_bounds(self.base_params, mode) if not self.kinematic else \
             self.model.input_bounds()
@@ -282,21 +281,7 @@ class WheelCore:
         """The controller's compiled batch kernel and its arguments (its ``torques`` method
         without the per-call Python checks, which cost ~20x the kernel at N = 1), and (with
         ``buffers``) its scratch buffers."""
-        from wheelgym.control import controllers as C
-        from wheelgym.models.caster_agv import CasterAGV
-        from wheelgym.models.three_wheel import ThreeWheel
-
-        ctl = self.controller
-        g = ctl.gains
-        if isinstance(self.model, ThreeWheel):
-            self._ctl_kernel = C._k_tw_twist
-            self._ctl_args = (ctl._p, ctl._tmax, g.k_v, g.ctrl_dt, ctl._mode)
-        elif isinstance(self.model, CasterAGV):
-            self._ctl_kernel = C._k_ca_twist
-            self._ctl_args = (ctl._p, ctl._tmax, g.k_v, g.ctrl_dt)
-        else:
-            self._ctl_kernel = C._k_ss_twist
-            self._ctl_args = (ctl._p, ctl._tmax, ctl._frac, g.k_v, g.ctrl_dt)
+        self._ctl_kernel, self._ctl_args = self.controller.batch_kernel()
         if not buffers:
             return
         N = self.num
@@ -440,7 +425,7 @@ class WheelCore:
         self.drawn[i] = drawn
         if self.kinematic:
             mdl = self.spec.model_cls(params, input_mode=self.action_mode)
-            self.P[i] = mdl._p
+            self.P[i] = mdl.packed
             lo, hi = self.model.action_bounds(mdl)  # the commanding side's scale
         else:
             self.P[i] = params.pack()

@@ -1,7 +1,8 @@
-"""Differential-drive inverse kinematics (diff-drive lecture sections 3 and 5.1).
+"""Differential-drive motion planning (diff-drive lecture section 5.1).
 
-* :func:`wheel_speeds` inverts the lecture's forward relation ``v = r (w_L + w_R) / 2``,
-  ``w = r (w_R - w_L) / d`` (``d`` the track width, the lecture's ``2a``).
+The wheel-speed relations themselves (lecture section 3) are :mod:`wheelgym.models.diffdrive`
+(re-exported here as :func:`wheel_speeds` and :func:`body_velocity`).
+
 * :func:`rtr` is the lecture's rotate-translate-rotate (RTR) method: the 3x2 Jacobian has no
   inverse, so a pose change is split into a turn on the spot toward the goal, a straight run,
   and a turn on the spot to the goal heading; in each motion the two wheel speeds are equal or
@@ -15,7 +16,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["wheel_speeds", "body_velocity", "Motion", "rtr", "wrap_angle"]
+from wheelgym.models.diffdrive import body_velocity, wheel_speeds
+
+__all__ = ["wheel_speeds", "body_velocity", "Motion", "rtr", "plan_rtr", "wrap_angle"]
 
 
 def _positive(name: str, value: float) -> float:
@@ -23,30 +26,6 @@ def _positive(name: str, value: float) -> float:
     if not (math.isfinite(value) and value > 0):
         raise ValueError(f"{name} must be a positive finite number, got {value!r}")
     return value
-
-
-def wheel_speeds(v: Any, w: Any, wheel_radius: float, track_width: float) -> np.ndarray:
-    """Wheel speeds ``(phidot_L, phidot_R)`` (rad/s) of a body velocity ``(v, w)``.
-
-    ``phidot_L = (v - w d / 2) / r``, ``phidot_R = (v + w d / 2) / r`` (diff-drive lecture
-    section 3 inverted). ``v`` (m/s) and ``w`` (rad/s) broadcast; returns shape ``(..., 2)``.
-    """
-    r = _positive("wheel_radius", wheel_radius)
-    d = _positive("track_width", track_width)
-    v = np.asarray(v, dtype=np.float64)
-    w = np.asarray(w, dtype=np.float64)
-    return np.stack(np.broadcast_arrays((v - 0.5 * d * w) / r, (v + 0.5 * d * w) / r), axis=-1)
-
-
-def body_velocity(phidot: Any, wheel_radius: float, track_width: float) -> np.ndarray:
-    """Forward kinematics: ``(v, w)`` of wheel speeds ``(..., 2)`` (diff-drive lecture 3)."""
-    r = _positive("wheel_radius", wheel_radius)
-    d = _positive("track_width", track_width)
-    ph = np.asarray(phidot, dtype=np.float64)
-    if ph.ndim == 0 or ph.shape[-1] != 2:
-        raise ValueError(f"phidot must have shape (..., 2), got {ph.shape}")
-    return np.stack([0.5 * r * (ph[..., 0] + ph[..., 1]), r * (ph[..., 1] - ph[..., 0]) / d],
-                    axis=-1)
 
 
 def wrap_angle(a: Any) -> Any:
@@ -130,3 +109,34 @@ def rtr(
     translate = Motion("translate", abs(dist) / (r * ws), (sgn * ws, sgn * ws), sgn * r * ws, 0.0,
                        dist)  # lecture case 1: v = v_L = v_R
     return rotate(a1), translate, rotate(a2)
+
+
+def plan_rtr(model: Any, start: Any, goal: Any, wheel_speed: float | None = None,
+             allow_reverse: bool = False) -> tuple[Motion, Motion, Motion]:
+    """Rotate-translate-rotate plan of a :class:`~wheelgym.models.DifferentialDrive` model.
+
+    Args:
+        model: the differential-drive model (its wheel radius, track width and limits).
+        start: pose ``(x, y, yaw)``.
+        goal: pose ``(x, y, yaw)``.
+        wheel_speed: wheel-speed magnitude (rad/s); default the model's
+            ``max_symmetric_wheel_speed()`` (every motion then stays inside the limits).
+        allow_reverse: drive backwards when the goal lies behind.
+
+    Returns:
+        Three :class:`Motion` records; feeding each motion's ``wheel_speeds`` in
+        ``WheelSpeeds`` mode for its ``duration`` reaches the goal exactly.
+
+    Raises:
+        ValueError: if the limits admit no symmetric wheel speed (a robot that cannot both
+            turn on the spot and drive), or ``wheel_speed`` is not positive.
+    """
+    if wheel_speed is None:
+        wheel_speed = model.max_symmetric_wheel_speed()
+        if not wheel_speed > 0:
+            raise ValueError(
+                "the speed ranges of this DifferentialDrive admit no symmetric wheel "
+                "speed (both signs must be reachable for rotate-translate-rotate)"
+            )
+    return rtr(start, goal, model.params.wheel_radius, model.params.track_width, wheel_speed,
+               allow_reverse)

@@ -162,9 +162,10 @@ class Model:
 
     Subclasses set the class attributes below and the compiled kernels
     ``_k_deriv(X, U, p, out)``, ``_k_step(X, U, p, h, n, out) -> bool`` and
-    ``_k_step_par(...)`` (the same with ``prange``); the step kernels return ``False`` when an
-    input is not finite, before integrating anything. Optionally (for speed on one state)
-    ``_k_step1`` and ``_k_deriv1``, compiled with the signatures
+    ``_k_step_par(...)`` (the same with ``prange``), usually from the
+    :class:`~wheelgym.integrators.ModelKernels` of their kernel module; the step kernels return
+    ``False`` when an input is not finite, before integrating anything. Optionally (for speed on
+    one state) ``_k_step1`` and ``_k_deriv1``, compiled with the signatures
     :data:`~wheelgym.integrators.STEP1_SIG` / :data:`~wheelgym.integrators.DERIV1_SIG`, that
     return a ``STATUS_*`` code of :mod:`wheelgym.integrators`.
 
@@ -187,6 +188,7 @@ class Model:
     input_names: ClassVar[tuple[str, ...]] = ()
     params_type: ClassVar[type[Params]] = Params
     default_sim_dt: ClassVar[float] = 0.002
+    #: The one default control period of wheelgym (controllers and envs read it from here).
     default_ctrl_dt: ClassVar[float] = 0.05
     friction_params: ClassVar[tuple[str, ...]] = ()
 
@@ -226,6 +228,13 @@ class Model:
     @property
     def input_dim(self) -> int:
         return len(self.input_names)
+
+    @property
+    def packed(self) -> np.ndarray:
+        """The packed parameter array the compiled kernels read (``params.pack()``, with the
+        input mode for the kinematic models), indexed by the ``P_*`` names of the model's
+        :mod:`wheelgym.models.kernels` module. The model's own array: do not modify it."""
+        return self._p
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r})"

@@ -49,20 +49,7 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit, prange
 
-from wheelgym import _numba_cache
-from wheelgym import integrators as _integrators
-from wheelgym.integrators import (
-    DERIV1_SIG,
-    STEP1_SIG,
-    all_finite,
-    check_one,
-    check_step_args,
-    finite_status,
-    rk4_inplace,
-)
-from wheelgym.models import friction as _friction
 from wheelgym.models._base import (
     COEFFICIENT,
     DAMPING,
@@ -76,17 +63,9 @@ from wheelgym.models._base import (
     Model,
     Params,
 )
-from wheelgym.models.friction import sgn_s
-
-# kernels here inline integrators.rk4_inplace and friction.sgn_s
-_numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
+from wheelgym.models.kernels import caster_agv as _kern
 
 __all__ = ["CasterAGVParams", "CasterAGV"]
-
-# Layout of the packed parameter vector (the last fifteen are derived).
-(_MB, _IB, _XG, _MW, _IWY, _IWZ, _R, _C, _AX, _AY, _D, _RC, _MC, _ICY, _ICZ, _MUR, _MUP,
- _RHO, _BD, _BC, _KS, _G, _TMAX, _KW, _KC, _KCZ, _MT, _INVR, _INVRC, _INVD, _M11, _MBXG,
- _GMBXG, _GMC, _GDRV, _INVC, _BDR2, _BCR2) = range(38)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -198,6 +177,8 @@ class CasterAGVParams(Params):
         return self.m_b + 2.0 * self.m_w + self.m_c
 
     def pack(self) -> np.ndarray:
+        """The packed array in the layout of the ``P_*`` indices of
+        :mod:`wheelgym.models.kernels.caster_agv`."""
         a = np.asarray(self.caster_axis, dtype=np.float64)
         kw = self.m_w + self.I_wy / self.r**2
         return np.array(
@@ -214,232 +195,12 @@ class CasterAGVParams(Params):
 
 
 def _loads_numpy(p: CasterAGVParams, sig: np.ndarray) -> np.ndarray:
-    """Parameter check only (before packing): the loads of :func:`_loads` for angles ``sig``."""
+    """Parameter check only (before packing): the compiled ``loads`` for angles ``sig``."""
     out = np.empty((len(sig), 3))
     pk = p.pack()
     for k, s in enumerate(sig):
-        out[k] = _loads(math.cos(s), math.sin(s), pk)
+        out[k] = _kern.loads(math.cos(s), math.sin(s), pk)
     return out
-
-
-# ---------------------------------------------------------------------------- compiled pieces
-@njit(cache=True, inline="always")
-def _gh(cs, sn, p):  # pragma: no cover - compiled
-    """Caster ``g_c``, ``h_c`` (physics.md TW-1 with the vy column dropped)."""
-    ax = p[_AX]
-    ay = p[_AY]
-    return cs, ax * sn - ay * cs, -sn, ax * cs + ay * sn
-
-
-@njit(cache=True, inline="always")
-def _loads(cs, sn, p):  # pragma: no cover - compiled
-    """Static normal loads ``(N_L, N_R, N_c)`` (N): total weight at the total centre of mass,
-    force and moment balance over the contacts ``(0, c)``, ``(0, -c)``, ``p = a - d e``.
-
-    Moments about the axle line give ``N_c p_x = g (m_b x_G + m_c p_x)``, about the x axis
-    ``c (N_L - N_R) + N_c p_y = g m_c p_y``; with ``t = g m_b x_G / p_x`` these read
-    ``N_c = t + g m_c`` and ``N_L - N_R = -t p_y / c``."""
-    px = p[_AX] - p[_D] * cs
-    py = p[_AY] - p[_D] * sn
-    t = p[_GMBXG] / px
-    rest = p[_GDRV] - t  # N_L + N_R
-    diff = -t * py * p[_INVC]  # N_L - N_R
-    return 0.5 * (rest + diff), 0.5 * (rest - diff), t + p[_GMC]
-
-
-@njit(cache=True, inline="always")
-def _mass(gc0, gc1, hc0, hc1, p):  # pragma: no cover - compiled
-    """``(m00, m01, m11)`` of M(sigma) (module docstring)."""
-    c = p[_C]
-    kw = p[_KW]
-    kc = p[_KC]
-    kz = p[_KCZ]
-    return (p[_MB] + 2.0 * kw + kc * gc0 * gc0 + kz * hc0 * hc0,
-            kc * gc0 * gc1 + kz * hc0 * hc1,
-            p[_M11] + 2.0 * kw * c * c + kc * gc1 * gc1 + kz * hc1 * hc1)
-
-
-@njit(cache=True, inline="always")
-def _bias(gc0, gc1, hc0, hc1, v, w, p):  # pragma: no cover - compiled
-    """Coriolis/centripetal term ``c(sigma, u)`` (module docstring, physics.md TW-3)."""
-    gu = gc0 * v + gc1 * w
-    hu = hc0 * v + hc1 * w
-    sd = hu * p[_INVD] - w  # TW-1 swivel rate
-    a = sd * p[_KC] * hu
-    b = sd * p[_KCZ] * gu
-    return -p[_MBXG] * w * w + a * gc0 - b * hc0, p[_MBXG] * w * v + a * gc1 - b * hc1
-
-
-@njit(cache=True, inline="always")
-def _friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p):  # pragma: no cover - compiled
-    """Generalized friction ``Q_f(sigma, u)`` (module docstring, physics.md TW-4)."""
-    c = p[_C]
-    ks = p[_KS]
-    invd = p[_INVD]
-    ul = v - c * w  # g_L . u
-    ur = v + c * w  # g_R . u
-    fl = p[_MUR] * n_l * sgn_s(ul, ks) + p[_BDR2] * ul
-    fr = p[_MUR] * n_r * sgn_s(ur, ks) + p[_BDR2] * ur
-    piv = p[_MUP] * (n_l + n_r) * sgn_s(p[_RHO] * w, ks)  # drive-wheel pivot scrub
-    gu = gc0 * v + gc1 * w
-    hu = hc0 * v + hc1 * w
-    pivot = hu * invd  # caster wheel rate about the vertical, w + sigmadot
-    fa = p[_MUR] * n_c * sgn_s(gu, ks) + p[_BCR2] * gu
-    fb = p[_MUP] * n_c * sgn_s(p[_RHO] * pivot, ks) * invd
-    fs = p[_BC] * (pivot - w)  # swivel joint, b_caster sigmadot
-    q0 = -(fl + fr) - fa * gc0 - (fb + fs * invd) * hc0
-    q1 = c * (fl - fr) - piv - fa * gc1 - (fb + fs * invd) * hc1 + fs
-    return q0, q1
-
-
-@njit(cache=True, inline="always")
-def _friction_jac_rest(gc0, gc1, hc0, hc1, n_l, n_r, n_c, p):  # pragma: no cover - compiled
-    """``(e00, e01, e11)`` of ``dQ_f/du`` at ``u = 0`` (symmetric, negative definite)."""
-    k = 2.0 * p[_KS] / math.pi  # slope of sgn_s at 0
-    c = p[_C]
-    invd = p[_INVD]
-    kd = p[_BD] * p[_INVR] * p[_INVR]
-    kl = p[_MUR] * n_l * k + kd
-    kr = p[_MUR] * n_r * k + kd
-    kp = p[_MUP] * (n_l + n_r) * k * p[_RHO]
-    kg = p[_MUR] * n_c * k + p[_BC] * p[_INVRC] * p[_INVRC]
-    kh = p[_MUP] * n_c * k * p[_RHO] * invd * invd
-    s0 = hc0 * invd
-    s1 = hc1 * invd - 1.0
-    bc = p[_BC]
-    e00 = kl + kr + kg * gc0 * gc0 + kh * hc0 * hc0 + bc * s0 * s0
-    e01 = c * (kl - kr) + kg * gc0 * gc1 + kh * hc0 * hc1 + bc * s0 * s1
-    e11 = c * c * (kl + kr) + kp + kg * gc1 * gc1 + kh * hc1 * hc1 + bc * s1 * s1
-    return -e00, -e01, -e11
-
-
-@njit(cache=True)
-def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
-    yaw = x[2]
-    v = x[3]
-    w = x[4]
-    cs = math.cos(x[5])
-    sn = math.sin(x[5])
-    out[0] = math.cos(yaw) * v  # physics.md section 0 with vy = 0
-    out[1] = math.sin(yaw) * v
-    out[2] = w
-    gc0, gc1, hc0, hc1 = _gh(cs, sn, p)
-    c = p[_C]
-    out[5] = (hc0 * v + hc1 * w) * p[_INVD] - w  # TW-1 swivel rate
-    out[6] = (v - c * w) * p[_INVR]  # thetadot_L
-    out[7] = (v + c * w) * p[_INVR]  # thetadot_R
-    out[8] = (gc0 * v + gc1 * w) * p[_INVRC]  # thetadot_c
-    n_l, n_r, n_c = _loads(cs, sn, p)
-    m00, m01, m11 = _mass(gc0, gc1, hc0, hc1, p)
-    b0, b1 = _bias(gc0, gc1, hc0, hc1, v, w, p)
-    q0, q1 = _friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p)
-    # M udot = (g_L tau_L + g_R tau_R) / r + Q_f - c
-    f0 = (u[0] + u[1]) * p[_INVR] + q0 - b0
-    f1 = c * (u[1] - u[0]) * p[_INVR] + q1 - b1
-    inv_det = 1.0 / (m00 * m11 - m01 * m01)
-    out[3] = (m11 * f0 - m01 * f1) * inv_det
-    out[4] = (m00 * f1 - m01 * f0) * inv_det
-
-
-@njit(cache=True)
-def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
-    for i in range(X.shape[0]):
-        _deriv_one(X[i], U[i], p, out[i])
-
-
-@njit(DERIV1_SIG, cache=True)
-def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
-    status = check_one(x, u, 9, 2)
-    if status == 0:
-        _deriv_one(x, u, p, out)
-    return status
-
-
-@njit(STEP1_SIG, cache=True)
-def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
-    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
-    status = check_one(x, u, 9, 2)
-    if status == 0:
-        status = check_step_args(dt, n)
-    if status != 0:
-        return status
-    work = np.empty((5, 9))
-    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
-    return finite_status(x)
-
-
-@njit(cache=True)
-def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    work = np.empty((5, X.shape[1]))
-    for i in range(X.shape[0]):
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
-    return True
-
-
-@njit(cache=True, parallel=True)
-def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    for i in prange(X.shape[0]):
-        work = np.empty((5, X.shape[1]))
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
-    return True
-
-
-@njit(cache=True)
-def _k_sigma_pieces(S, p, jac, mass, loads, centers, fjac):  # pragma: no cover - compiled
-    """Fill J (N,4,2), M (N,2,2), N_j (N,3), wheel centres (N,3,2), dQ_f/du at rest (N,2,2)."""
-    c = p[_C]
-    for k in range(S.shape[0]):
-        cs = math.cos(S[k])
-        sn = math.sin(S[k])
-        gc0, gc1, hc0, hc1 = _gh(cs, sn, p)
-        jac[k, 0, 0] = p[_INVR]
-        jac[k, 0, 1] = -c * p[_INVR]
-        jac[k, 1, 0] = p[_INVR]
-        jac[k, 1, 1] = c * p[_INVR]
-        jac[k, 2, 0] = gc0 * p[_INVRC]
-        jac[k, 2, 1] = gc1 * p[_INVRC]
-        jac[k, 3, 0] = hc0 * p[_INVD]
-        jac[k, 3, 1] = hc1 * p[_INVD] - 1.0
-        m00, m01, m11 = _mass(gc0, gc1, hc0, hc1, p)
-        mass[k, 0, 0] = m00
-        mass[k, 0, 1] = m01
-        mass[k, 1, 0] = m01
-        mass[k, 1, 1] = m11
-        n_l, n_r, n_c = _loads(cs, sn, p)
-        loads[k, 0] = n_l
-        loads[k, 1] = n_r
-        loads[k, 2] = n_c
-        centers[k, 0, 0] = 0.0
-        centers[k, 0, 1] = c
-        centers[k, 1, 0] = 0.0
-        centers[k, 1, 1] = -c
-        centers[k, 2, 0] = p[_AX] - p[_D] * cs
-        centers[k, 2, 1] = p[_AY] - p[_D] * sn
-        e00, e01, e11 = _friction_jac_rest(gc0, gc1, hc0, hc1, n_l, n_r, n_c, p)
-        fjac[k, 0, 0] = e00
-        fjac[k, 0, 1] = e01
-        fjac[k, 1, 0] = e01
-        fjac[k, 1, 1] = e11
-
-
-@njit(cache=True)
-def _k_twist_pieces(S, V, p, bias, fric):  # pragma: no cover - compiled
-    """Fill c(sigma, u) (N,2) and Q_f(sigma, u) (N,2)."""
-    for k in range(S.shape[0]):
-        cs = math.cos(S[k])
-        sn = math.sin(S[k])
-        gc0, gc1, hc0, hc1 = _gh(cs, sn, p)
-        v = V[k, 0]
-        w = V[k, 1]
-        bias[k, 0], bias[k, 1] = _bias(gc0, gc1, hc0, hc1, v, w, p)
-        n_l, n_r, n_c = _loads(cs, sn, p)
-        fric[k, 0], fric[k, 1] = _friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p)
 
 
 # ---------------------------------------------------------------------------- the model
@@ -476,13 +237,12 @@ class CasterAGV(Model):
                                               "caster_steer")
     params_type = CasterAGVParams
     default_sim_dt = 0.002
-    default_ctrl_dt = 0.05
 
-    _k_deriv = _k_deriv
-    _k_step = _k_step
-    _k_step_par = _k_step_par
-    _k_step1 = _k_step1
-    _k_deriv1 = _k_deriv1
+    _k_deriv = _kern.KERNELS.deriv
+    _k_step = _kern.KERNELS.step
+    _k_step_par = _kern.KERNELS.step_par
+    _k_step1 = _kern.KERNELS.step1
+    _k_deriv1 = _kern.KERNELS.deriv1
     friction_params = ("mu_r", "mu_p", "b_drive", "b_caster")
 
     params: CasterAGVParams
@@ -504,7 +264,7 @@ class CasterAGV(Model):
         loads = np.empty((n, 3))
         centers = np.empty((n, 3, 2))
         fjac = np.empty((n, 2, 2))
-        _k_sigma_pieces(S, self._p, jac, mass, loads, centers, fjac)
+        _kern.k_sigma_pieces(S, self._p, jac, mass, loads, centers, fjac)
         return (jac.reshape(lead + (4, 2)), mass.reshape(lead + (2, 2)),
                 loads.reshape(lead + (3,)), centers.reshape(lead + (3, 2)),
                 fjac.reshape(lead + (2, 2)))
@@ -517,7 +277,7 @@ class CasterAGV(Model):
         V2 = np.ascontiguousarray(np.broadcast_to(V, lead + (2,)).reshape(-1, 2))
         bias = np.empty_like(V2)
         fric = np.empty_like(V2)
-        _k_twist_pieces(S, V2, self._p, bias, fric)
+        _kern.k_twist_pieces(S, V2, self._p, bias, fric)
         return bias.reshape(lead + (2,)), fric.reshape(lead + (2,))
 
     def _state(self, x: Any) -> np.ndarray:

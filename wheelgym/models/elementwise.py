@@ -3,10 +3,10 @@
 NumPy picks its transcendental loops by CPU and by array layout: on AVX-512 machines a
 contiguous ``np.sin``, ``np.arctan2`` or ``np.power`` runs SVML's vector code, a strided one or
 a Python float runs libm, and the two differ in the last bit. The reference trajectories
-(:mod:`wheelgym.tasks.references`) are evaluated one reference at a time (``evaluate``) and as
+(:mod:`wheelgym.kinematics.references`) are evaluated one reference at a time (``evaluate``) and as
 a batch of parameter columns (``evaluate_batch``, the vector env's track task), and the two
 must agree bit for bit on any machine; so they, and the analytic baseline
-(:mod:`wheelgym.control.baseline`, whose batch must equal its single robot), call these
+(:mod:`wheelgym.envs.baseline`, whose batch must equal its single robot), call these
 functions instead.
 
 Each is a NumPy ufunc (any shape, broadcasting, scalars, ``out=``) whose loop is one compiled

@@ -33,23 +33,34 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit, prange
 
-from wheelgym import _numba_cache
-from wheelgym import integrators as _integrators
-from wheelgym.integrators import (
-    DERIV1_SIG,
-    STEP1_SIG,
-    all_finite,
-    check_one,
-    check_step_args,
-    finite_status,
-    rk4_inplace,
-)
 from wheelgym.models._base import LENGTH, RATE, SPEED, Model, Params
-
-# kernels here inline integrators.rk4_inplace
-_numba_cache.guard(__file__, _integrators.__file__)
+from wheelgym.models.diffdrive import wheel_speeds
+from wheelgym.models.kernels import kinematic as _kern
+from wheelgym.models.kernels.kinematic import (
+    K_ACK,
+    K_BIC,
+    K_DD,
+    K_UNI,
+    M_VSHR,
+    M_VSSA,
+    M_VSSR,
+    M_WS,
+    M_WSHR,
+    NP,
+    P_D,
+    P_KIND,
+    P_L,
+    P_MODE,
+    P_PSIDMAX,
+    P_PSIMAX,
+    P_R,
+    P_VHI,
+    P_VLO,
+    P_WMAX,
+    P_WSHI,
+    P_WSLO,
+)
 
 __all__ = [
     "KinematicModel",
@@ -63,19 +74,13 @@ __all__ = [
     "AckermannParams",
 ]
 
-# Layout of the packed parameter vector (shared by all kinematic models; unused slots are 0).
-(_KIND, _MODE, _R, _D, _L, _VLO, _VHI, _WSLO, _WSHI, _WMAX, _PSIMAX, _PSIDMAX) = range(12)
-_NP = 12
-
-# Model kinds and input modes (integers stored in the packed vector).
-_K_UNI, _K_BIC, _K_DD, _K_ACK = 0, 1, 2, 3
-_M_WSHR, _M_VSHR, _M_VSSA, _M_WS, _M_VSSR = 0, 1, 2, 3, 4
+# Input mode codes stored at P_MODE of the packed array (kernels.kinematic).
 _MODE_CODES = {
-    "WheelSpeedHeadingRate": _M_WSHR,
-    "VehicleSpeedHeadingRate": _M_VSHR,
-    "VehicleSpeedSteeringAngle": _M_VSSA,
-    "WheelSpeeds": _M_WS,
-    "VehicleSpeedSteeringRate": _M_VSSR,
+    "WheelSpeedHeadingRate": M_WSHR,
+    "VehicleSpeedHeadingRate": M_VSHR,
+    "VehicleSpeedSteeringAngle": M_VSSA,
+    "WheelSpeeds": M_WS,
+    "VehicleSpeedSteeringRate": M_VSSR,
 }
 
 
@@ -141,18 +146,18 @@ class UnicycleParams(Params):
         "wheel_radius": LENGTH, "speed_range": SPEED, "wheel_speed_range": RATE,
         "max_heading_rate": RATE,
     }
-    _kind: ClassVar[int] = _K_UNI
+    _kind: ClassVar[int] = K_UNI
 
     def _check(self) -> None:
         _check_wheel_speeds(self)
 
     def pack(self) -> np.ndarray:
-        p = np.zeros(_NP)
-        p[_KIND] = self._kind
-        p[_R] = self.wheel_radius
-        p[_VLO], p[_VHI] = self.speed_range
-        p[_WSLO], p[_WSHI] = self.wheel_speed_range
-        p[_WMAX] = self.max_heading_rate
+        p = np.zeros(NP)
+        p[P_KIND] = self._kind
+        p[P_R] = self.wheel_radius
+        p[P_VLO], p[P_VHI] = self.speed_range
+        p[P_WSLO], p[P_WSHI] = self.wheel_speed_range
+        p[P_WMAX] = self.max_heading_rate
         return p
 
 
@@ -175,18 +180,18 @@ class BicycleParams(Params):
     _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
         "wheelbase": LENGTH, "speed_range": SPEED,
     }
-    _kind: ClassVar[int] = _K_BIC
+    _kind: ClassVar[int] = K_BIC
 
     def _check(self) -> None:
         _check_range(self, "speed_range")
         _check_steering_angle(self)
 
     def pack(self) -> np.ndarray:
-        p = np.zeros(_NP)
-        p[_KIND] = self._kind
-        p[_L] = self.wheelbase
-        p[_VLO], p[_VHI] = self.speed_range
-        p[_PSIMAX] = self.max_steering_angle
+        p = np.zeros(NP)
+        p[P_KIND] = self._kind
+        p[P_L] = self.wheelbase
+        p[P_VLO], p[P_VHI] = self.speed_range
+        p[P_PSIMAX] = self.max_steering_angle
         return p
 
 
@@ -212,18 +217,18 @@ class DifferentialDriveParams(Params):
         "wheel_radius": LENGTH, "track_width": LENGTH, "speed_range": SPEED,
         "wheel_speed_range": RATE,
     }
-    _kind: ClassVar[int] = _K_DD
+    _kind: ClassVar[int] = K_DD
 
     def _check(self) -> None:
         _check_wheel_speeds(self)
 
     def pack(self) -> np.ndarray:
-        p = np.zeros(_NP)
-        p[_KIND] = self._kind
-        p[_R] = self.wheel_radius
-        p[_D] = self.track_width
-        p[_VLO], p[_VHI] = self.speed_range
-        p[_WSLO], p[_WSHI] = self.wheel_speed_range
+        p = np.zeros(NP)
+        p[P_KIND] = self._kind
+        p[P_R] = self.wheel_radius
+        p[P_D] = self.track_width
+        p[P_VLO], p[P_VHI] = self.speed_range
+        p[P_WSLO], p[P_WSHI] = self.wheel_speed_range
         return p
 
 
@@ -254,136 +259,21 @@ class AckermannParams(Params):
         "wheelbase": LENGTH, "track_width": LENGTH, "speed_range": SPEED,
         "max_steering_rate": RATE,
     }
-    _kind: ClassVar[int] = _K_ACK
+    _kind: ClassVar[int] = K_ACK
 
     def _check(self) -> None:
         _check_range(self, "speed_range")
         _check_steering_angle(self)
 
     def pack(self) -> np.ndarray:
-        p = np.zeros(_NP)
-        p[_KIND] = self._kind
-        p[_D] = self.track_width
-        p[_L] = self.wheelbase
-        p[_VLO], p[_VHI] = self.speed_range
-        p[_PSIMAX] = self.max_steering_angle
-        p[_PSIDMAX] = self.max_steering_rate
+        p = np.zeros(NP)
+        p[P_KIND] = self._kind
+        p[P_D] = self.track_width
+        p[P_L] = self.wheelbase
+        p[P_VLO], p[P_VHI] = self.speed_range
+        p[P_PSIMAX] = self.max_steering_angle
+        p[P_PSIDMAX] = self.max_steering_rate
         return p
-
-
-# ---------------------------------------------------------------------------- compiled pieces
-@njit(cache=True, inline="always")
-def _clip(a, lo, hi):  # pragma: no cover - compiled
-    return min(max(a, lo), hi)
-
-
-@njit(cache=True, inline="always")
-def _effective(x, u, p):  # pragma: no cover - compiled
-    """Saturated body command ``(v, w, psidot)`` (module docstring for the order)."""
-    kind = int(p[_KIND])
-    mode = int(p[_MODE])
-    psidot = 0.0
-    if kind == _K_UNI:
-        r = p[_R]
-        phidot = u[0] if mode == _M_WSHR else u[0] / r
-        phidot = _clip(phidot, p[_WSLO], p[_WSHI])
-        v = _clip(r * phidot, p[_VLO], p[_VHI])  # reference: v = r phidot
-        w = _clip(u[1], -p[_WMAX], p[_WMAX])
-    elif kind == _K_DD:
-        r, d = p[_R], p[_D]
-        if mode == _M_WS:
-            wl, wr = u[0], u[1]
-        else:  # diff-drive lecture section 3, inverted
-            wl = (u[0] - 0.5 * d * u[1]) / r
-            wr = (u[0] + 0.5 * d * u[1]) / r
-        wl = _clip(wl, p[_WSLO], p[_WSHI])
-        wr = _clip(wr, p[_WSLO], p[_WSHI])
-        v = _clip(0.5 * r * (wl + wr), p[_VLO], p[_VHI])  # reference: v = r (L + R) / 2
-        w = r * (wr - wl) / d  # reference: w = r (R - L) / d
-    elif kind == _K_BIC:
-        v = _clip(u[0], p[_VLO], p[_VHI])
-        if mode == _M_VSSA:
-            psi = _clip(u[1], -p[_PSIMAX], p[_PSIMAX])
-            w = v * math.tan(psi) / p[_L]  # reference: yawdot = v tan(psi) / l
-        else:
-            wlim = abs(v) * math.tan(p[_PSIMAX]) / p[_L]
-            w = _clip(u[1], -wlim, wlim)
-    else:  # Ackermann: reference ODE, psi integrates
-        v = _clip(u[0], p[_VLO], p[_VHI])
-        psimax = p[_PSIMAX]
-        psi = _clip(x[3], -psimax, psimax)
-        w = v * math.tan(psi) / p[_L]
-        psidot = _clip(u[1], -p[_PSIDMAX], p[_PSIDMAX])
-        if (x[3] >= psimax and psidot > 0.0) or (x[3] <= -psimax and psidot < 0.0):
-            psidot = 0.0
-    return v, w, psidot
-
-
-@njit(cache=True)
-def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
-    v, w, psidot = _effective(x, u, p)
-    yaw = x[2]
-    out[0] = math.cos(yaw) * v  # reference: xdot = v cos(theta)
-    out[1] = math.sin(yaw) * v  # ydot = v sin(theta)
-    out[2] = w  # thetadot = w
-    if x.shape[0] > 3:
-        out[3] = psidot  # Ackermann: psidot
-
-
-@njit(cache=True)
-def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
-    for i in range(X.shape[0]):
-        _deriv_one(X[i], U[i], p, out[i])
-
-
-@njit(DERIV1_SIG, cache=True)
-def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
-    status = check_one(x, u, 4 if int(p[_KIND]) == _K_ACK else 3, 2)
-    if status == 0:
-        _deriv_one(x, u, p, out)
-    return status
-
-
-@njit(STEP1_SIG, cache=True)
-def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
-    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
-    nx = 4 if int(p[_KIND]) == _K_ACK else 3
-    status = check_one(x, u, nx, 2)
-    if status == 0:
-        status = check_step_args(dt, n)
-    if status != 0:
-        return status
-    work = np.empty((5, nx))
-    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
-    return finite_status(x)
-
-
-@njit(cache=True)
-def _k_effective(X, U, p, out):  # pragma: no cover - compiled
-    for i in range(X.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = _effective(X[i], U[i], p)
-
-
-@njit(cache=True)
-def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    work = np.empty((5, X.shape[1]))
-    for i in range(X.shape[0]):
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
-    return True
-
-
-@njit(cache=True, parallel=True)
-def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    for i in prange(X.shape[0]):
-        work = np.empty((5, X.shape[1]))
-        out[i] = X[i]
-        rk4_inplace(_deriv_one, out[i], U[i], p, h, n, work)
-    return True
 
 
 # ---------------------------------------------------------------------------- the models
@@ -404,13 +294,12 @@ class KinematicModel(Model):
     input_modes: ClassVar[dict[str, tuple[str, str]]] = {}
     default_input_mode: ClassVar[str] = ""
     default_sim_dt = 0.05  # exact for constant commands up to RK4 round-off
-    default_ctrl_dt = 0.05
 
-    _k_deriv = _k_deriv
-    _k_step = _k_step
-    _k_step_par = _k_step_par
-    _k_step1 = _k_step1
-    _k_deriv1 = _k_deriv1
+    _k_deriv = _kern.KERNELS.deriv
+    _k_step = _kern.KERNELS.step
+    _k_step_par = _kern.KERNELS.step_par
+    _k_step1 = _kern.KERNELS.step1
+    _k_deriv1 = _kern.KERNELS.deriv1
 
     def __init__(
         self,
@@ -432,7 +321,7 @@ class KinematicModel(Model):
             )
         self.input_mode = mode
         self.input_names = self.input_modes[mode]
-        self._p[_MODE] = _MODE_CODES[mode]
+        self._p[P_MODE] = _MODE_CODES[mode]
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r}, input_mode={self.input_mode!r})"
@@ -444,7 +333,7 @@ class KinematicModel(Model):
         """
         X, U, lead = self._prepare(x, u)
         out = np.empty((X.shape[0], 3))
-        _k_effective(X, U, self._p, out)
+        _kern.k_effective(X, U, self._p, out)
         k = 3 if self.state_dim > 3 else 2
         return out[:, :k].reshape(lead + (k,))
 
@@ -602,8 +491,9 @@ class DifferentialDrive(KinematicModel):
     | 2     | yaw   | rad  |   |                             |                     |        |
 
     ``v = r (phidot_L + phidot_R) / 2``, ``w = r (phidot_R - phidot_L) / d``. Default mode
-    ``WheelSpeeds`` (as the reference). Saturation: module docstring. Inverse kinematics and the
-    rotate-translate-rotate decomposition: :mod:`wheelgym.kinematics.diffdrive`.
+    ``WheelSpeeds`` (as the reference). Saturation: module docstring. Inverse kinematics:
+    :mod:`wheelgym.models.diffdrive`; the rotate-translate-rotate plan:
+    :func:`wheelgym.kinematics.diffdrive.plan_rtr`.
     """
 
     params_type = DifferentialDriveParams
@@ -627,10 +517,8 @@ class DifferentialDrive(KinematicModel):
     def wheel_speeds(self, v: Any, w: Any) -> np.ndarray:
         """Inverse kinematics ``(phidot_L, phidot_R)`` (rad/s) of a body velocity (no limits).
 
-        See :func:`wheelgym.kinematics.diffdrive.wheel_speeds`.
+        See :func:`wheelgym.models.diffdrive.wheel_speeds`.
         """
-        from wheelgym.kinematics.diffdrive import wheel_speeds
-
         return wheel_speeds(v, w, self.params.wheel_radius, self.params.track_width)
 
     def max_symmetric_wheel_speed(self) -> float:
@@ -639,38 +527,6 @@ class DifferentialDrive(KinematicModel):
         wslo, wshi = p.wheel_speed_range
         vlo, vhi = p.speed_range
         return float(min(-wslo, wshi, -vlo / p.wheel_radius, vhi / p.wheel_radius))
-
-    def rtr(self, start: Any, goal: Any, wheel_speed: float | None = None,
-            allow_reverse: bool = False):
-        """Rotate-translate-rotate plan from ``start`` to ``goal`` (diff-drive lecture 5.1).
-
-        Args:
-            start: pose ``(x, y, yaw)``.
-            goal: pose ``(x, y, yaw)``.
-            wheel_speed: wheel-speed magnitude (rad/s); default
-                :meth:`max_symmetric_wheel_speed` (every motion then stays inside the limits).
-            allow_reverse: drive backwards when the goal lies behind.
-
-        Returns:
-            Three :class:`wheelgym.kinematics.diffdrive.Motion` records; feeding each
-            motion's ``wheel_speeds`` in ``WheelSpeeds`` mode for its ``duration`` reaches
-            the goal exactly.
-
-        Raises:
-            ValueError: if the limits admit no symmetric wheel speed (a robot that cannot
-                both turn on the spot and drive), or ``wheel_speed`` is not positive.
-        """
-        from wheelgym.kinematics.diffdrive import rtr
-
-        if wheel_speed is None:
-            wheel_speed = self.max_symmetric_wheel_speed()
-            if not wheel_speed > 0:
-                raise ValueError(
-                    "the speed ranges of this DifferentialDrive admit no symmetric wheel "
-                    "speed (both signs must be reachable for rotate-translate-rotate)"
-                )
-        return rtr(start, goal, self.params.wheel_radius, self.params.track_width,
-                   wheel_speed, allow_reverse)
 
 
 class Ackermann(KinematicModel):

@@ -15,22 +15,7 @@ import math
 from typing import ClassVar
 
 import numpy as np
-from numba import njit, prange
 
-from wheelgym import _numba_cache
-from wheelgym import integrators as _integrators
-from wheelgym.integrators import (
-    DERIV1_SIG,
-    LANES,
-    STEP1_SIG,
-    all_finite,
-    check_one,
-    check_step_args,
-    finite_status,
-    rk4_inplace,
-    rk4_rows,
-)
-from wheelgym.models import friction as _friction
 from wheelgym.models._base import (
     COEFFICIENT,
     GRAVITY,
@@ -43,16 +28,9 @@ from wheelgym.models._base import (
     Model,
     Params,
 )
-from wheelgym.models.friction import sgn_s, sincos
-
-# kernels here inline integrators.rk4_inplace, integrators.rk4_block and friction.sgn_s
-_numba_cache.guard(__file__, _integrators.__file__, _friction.__file__)
+from wheelgym.models.kernels import skid_steer as _kern
 
 __all__ = ["SkidSteerParams", "SkidSteer"]
-
-# Layout of the packed parameter vector read by the kernels.
-_M, _I, _A, _B, _C, _R, _XICR, _MUS, _MUL, _KS, _G, _TMAX = range(12)
-_NP = 12  # length of the packed vector
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,6 +82,8 @@ class SkidSteerParams(Params):
             )
 
     def pack(self) -> np.ndarray:
+        """The packed array in the layout of the ``P_*`` indices of
+        :mod:`wheelgym.models.kernels.skid_steer`."""
         return np.array(
             [self.m, self.I, self.a, self.b, self.c, self.r, self.x_icr, self.mu_s, self.mu_l,
              self.k_s, self.g, self.tau_max],
@@ -123,149 +103,6 @@ class SkidSteerParams(Params):
         n_rear = self.b * self.m * self.g / (2.0 * (self.a + self.b))
         n_front = self.a * self.m * self.g / (2.0 * (self.a + self.b))
         return np.array([n_rear, n_front, n_front, n_rear])
-
-
-# ---------------------------------------------------------------------------- compiled pieces
-@njit(cache=True, inline="always")
-def _loads(p):  # pragma: no cover - compiled
-    """(N_rear, N_front) of SS-2."""
-    s = 2.0 * (p[_A] + p[_B])
-    return p[_B] * p[_M] * p[_G] / s, p[_A] * p[_M] * p[_G] / s
-
-
-@njit(cache=True, inline="always")
-def _resist(vx, wz, p):  # pragma: no cover - compiled
-    """Rbar = (sum F_si, -x_icr sum F_li + M_r) of SS-2/SS-3 and the friction power (W, <= 0).
-
-    Grouped as in the skid-steer notes: the two wheels of a side share ``v_ix`` (``v_L``,
-    ``v_R``), the two wheels of an axle share ``v_iy`` (``v_F``, ``v_B``), so four smoothed
-    signs serve eight forces, and ``M_r`` is the notes' side/axle sum. With equal side
-    torques and ``wz = 0`` the two sides' forces are bitwise equal and ``M_r`` is exactly 0.
-    """
-    a, b, c, xicr, ks = p[_A], p[_B], p[_C], p[_XICR], p[_KS]
-    n_rear, n_front = _loads(p)
-    vy = -xicr * wz  # SS-1 ICR constraint vy + x_icr wz = 0
-    # SS-1 contact velocities v_ix = vx - wz y_i, v_iy = vy + wz x_i (y_i = +-c, x_i = -a, b)
-    v_l = vx - wz * c  # wheels 1, 2 (left)
-    v_r = vx + wz * c  # wheels 3, 4 (right)
-    v_f = vy + wz * b  # wheels 2, 3 (front)
-    v_b = vy - wz * a  # wheels 1, 4 (rear)
-    # SS-2: F_si = mu_s N_i sgn_s(v_ix), F_li = mu_l N_i sgn_s(v_iy)
-    s_l = p[_MUS] * sgn_s(v_l, ks)
-    s_r = p[_MUS] * sgn_s(v_r, ks)
-    l_f = p[_MUL] * sgn_s(v_f, ks)
-    l_b = p[_MUL] * sgn_s(v_b, ks)
-    fs_left = n_rear * s_l + n_front * s_l  # F_s1 + F_s2
-    fs_right = n_front * s_r + n_rear * s_r  # F_s3 + F_s4
-    fl_front = n_front * l_f + n_front * l_f  # F_l2 + F_l3
-    fl_rear = n_rear * l_b + n_rear * l_b  # F_l1 + F_l4
-    sum_fs = fs_left + fs_right
-    sum_fl = fl_front + fl_rear
-    # SS-2 M_r = sum x_i F_li - y_i F_si (skid-steer notes: -a(F_l1+F_l4) + b(F_l2+F_l3)
-    #   + c(-(F_s1+F_s2) + (F_s3+F_s4)))
-    m_r = b * fl_front - a * fl_rear + c * (fs_right - fs_left)
-    power = -(fs_left * v_l + fs_right * v_r + fl_front * v_f + fl_rear * v_b)
-    return sum_fs, -xicr * sum_fl + m_r, power  # SS-3 Rbar
-
-
-@njit(cache=True, inline="always")
-def _deriv_t(x, u, p):  # pragma: no cover - compiled
-    """The state derivative as a 5-tuple. ``x``, ``u``, ``p`` are arrays or tuples read by
-    constant index only, so the block kernels (tuples, no branches) vectorise."""
-    yaw, vx, wz = x[2], x[3], x[4]
-    m, xicr = p[_M], p[_XICR]
-    vy = -xicr * wz  # SS-1
-    sy, cy = sincos(yaw)
-    r0, r1, _ = _resist(vx, wz, p)
-    tau_l = u[0] + u[1]
-    tau_r = u[2] + u[3]
-    # SS-3: Mbar etadot = Bbar (tau_L, tau_R) - Cbar eta - Rbar,
-    #   Cbar eta = m x_icr (wz wz, -wz vx), Bbar = (1/r) [[1, 1], [-c, c]]
-    f0 = (tau_l + tau_r) / p[_R] - m * xicr * wz * wz - r0
-    f1 = p[_C] * (tau_r - tau_l) / p[_R] + m * xicr * wz * vx - r1
-    # physics.md section 0 (three-wheel paper (15)-(16)), then SS-3
-    return (cy * vx - sy * vy, sy * vx + cy * vy, wz, f0 / m, f1 / (m * xicr * xicr + p[_I]))
-
-
-@njit(cache=True)
-def _deriv_one(x, u, p, out):  # pragma: no cover - compiled
-    d = _deriv_t(x, u, p)
-    for j in range(5):
-        out[j] = d[j]
-
-
-@njit(cache=True, inline="always")
-def _power_t(x, k, u, p):  # pragma: no cover - compiled
-    """Motor power ``tau . omega`` (W) at state ``x``: the state holds no wheel angles, so
-    from SS-1 ``tau_L omega_L + tau_R omega_R = ((tau_L + tau_R) vx + c (tau_R - tau_L) wz)
-    / r`` (= Bbar (tau_L, tau_R) . eta of SS-3), one division."""
-    tl = u[0] + u[1]
-    tr = u[2] + u[3]
-    return ((tl + tr) * x[3] + p[_C] * (tr - tl) * x[4]) / p[_R]
-
-
-@njit(cache=True)
-def _k_deriv(X, U, p, out):  # pragma: no cover - compiled
-    for i in range(X.shape[0]):
-        _deriv_one(X[i], U[i], p, out[i])
-
-
-@njit(DERIV1_SIG, cache=True)
-def _k_deriv1(x, u, p, out):  # pragma: no cover - compiled
-    status = check_one(x, u, 5, 4)
-    if status == 0:
-        _deriv_one(x, u, p, out)
-    return status
-
-
-@njit(STEP1_SIG, cache=True)
-def _k_step1(x, u, p, dt, n):  # pragma: no cover - compiled
-    """Advance one state ``x`` in place; a ``STATUS_*`` code of wheelgym.integrators."""
-    status = check_one(x, u, 5, 4)
-    if status == 0:
-        status = check_step_args(dt, n)
-    if status != 0:
-        return status
-    work = np.empty((5, 5))
-    rk4_inplace(_deriv_one, x, u, p, dt / n, n, work)
-    return finite_status(x)
-
-
-@njit(cache=True, error_model="numpy")
-def _k_block(X, U, P, h, n, out, work, b0):  # pragma: no cover - compiled
-    """Rows ``b0 .. b0 + LANES`` as one vectorised block (``integrators.rk4_rows``), as
-    ThreeWheel's ``_k_block``: ``out`` the new states, ``work`` the motor work (J); ``U`` read
-    in its first 4 columns, ``P`` one row (shared) or one per row; NumPy's error model (no
-    exception branch in the vectorised loops)."""
-    rk4_rows(_deriv_t, _power_t, X, U, P, h, n, out, work, b0, 5, 4, _NP)
-
-
-@njit(cache=True)
-def _k_step(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    P = p.reshape((1, p.shape[0]))
-    work = np.empty(X.shape[0])
-    for b0 in range(0, X.shape[0], LANES):
-        _k_block(X, U, P, h, n, out, work, b0)
-    return True
-
-
-@njit(cache=True, parallel=True)
-def _k_step_par(X, U, p, h, n, out):  # pragma: no cover - compiled
-    if not (all_finite(X) and all_finite(U)):
-        return False
-    P = p.reshape((1, p.shape[0]))
-    work = np.empty(X.shape[0])
-    for b in prange((X.shape[0] + LANES - 1) // LANES):
-        _k_block(X, U, P, h, n, out, work, b * LANES)
-    return True
-
-
-@njit(cache=True)
-def _k_resist(E, p, out):  # pragma: no cover - compiled
-    for i in range(E.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = _resist(E[i, 0], E[i, 1], p)
 
 
 # ---------------------------------------------------------------------------- the model
@@ -293,15 +130,14 @@ class SkidSteer(Model):
     input_names = ("tau_1", "tau_2", "tau_3", "tau_4")
     params_type = SkidSteerParams
     default_sim_dt = 0.00125
-    default_ctrl_dt = 0.05
 
     friction_params = ("mu_s", "mu_l")
 
-    _k_deriv = _k_deriv
-    _k_step = _k_step
-    _k_step_par = _k_step_par
-    _k_step1 = _k_step1
-    _k_deriv1 = _k_deriv1
+    _k_deriv = _kern.KERNELS.deriv
+    _k_step = _kern.KERNELS.step
+    _k_step_par = _kern.KERNELS.step_par
+    _k_step1 = _kern.KERNELS.step1
+    _k_deriv1 = _kern.KERNELS.deriv1
 
     params: SkidSteerParams
 
@@ -342,7 +178,7 @@ class SkidSteer(Model):
         X = self._as_batch(x, self.state_dim, "x")
         E = np.ascontiguousarray(X[..., 3:5].reshape(-1, 2))
         out = np.empty((E.shape[0], 3))
-        _k_resist(E, self._p, out)
+        _kern.k_resist(E, self._p, out)
         return out.reshape(X.shape[:-1] + (3,))
 
     # Kinematics ---------------------------------------------------------------------

@@ -1,6 +1,10 @@
-"""Tasks: reference trajectories, and the environments' goal, track and navigate tasks."""
+"""Tasks: the environments' goal, track and navigate tasks, and the view of the batch they use.
 
-from wheelgym.tasks.references import (
+The reference trajectories live in :mod:`wheelgym.kinematics.references`; they are exported
+here too, as the track task's ``reference`` reset option takes them.
+"""
+
+from wheelgym.kinematics.references import (
     Circle,
     FigureEight,
     Line,
@@ -10,8 +14,11 @@ from wheelgym.tasks.references import (
     evaluate_batch,
     quintic_scaling,
 )
+from wheelgym.tasks.view import BatchView, RobotConstants
 
 __all__ = [
+    "BatchView",
+    "RobotConstants",
     "Reference",
     "QuinticCircle",
     "Circle",

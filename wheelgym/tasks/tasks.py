@@ -1,8 +1,9 @@
 """The environments' tasks: start states, goals or references, observations, rewards, ends.
 
-A task works on the whole batch of a :class:`~wheelgym.envs.core.WheelCore` (rows are robots)
-through one compiled kernel per step (``wheelgym.tasks._kernels``); ``reset_rows`` draws row i's
-episode only from ``rngs[i]``.
+A task works on a whole batch of robots (rows), seen through a
+:class:`~wheelgym.tasks.view.BatchView` (the environments' core implements it), with one
+compiled kernel per step (``wheelgym.tasks._kernels``); ``reset_rows`` draws row i's episode only
+from ``rngs[i]``.
 """
 
 from __future__ import annotations
@@ -10,21 +11,19 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
-from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
-from wheelgym.tasks.references import (
+from wheelgym.kinematics.references import (
     Circle,
     FigureEight,
     QuinticCircle,
     Reference,
     evaluate_batch,
 )
-
-if TYPE_CHECKING:  # pragma: no cover
-    from wheelgym.envs.core import WheelCore
+from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
+from wheelgym.tasks.view import BatchView, RobotConstants
 
 __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]
 
@@ -71,7 +70,7 @@ class Task:
     columns: ClassVar[tuple[str, ...]] = ()
     default_weights: ClassVar[dict[str, float]] = {}
 
-    def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
+    def __init__(self, core: BatchView, weights: Mapping[str, float] | None) -> None:
         self.core = core
         spec = core.spec
         names = self.term_names(spec)
@@ -93,7 +92,7 @@ class Task:
         self.term_index = np.array([self.columns.index(k) for k in names])
         self.names = names
 
-    def term_names(self, spec) -> tuple[str, ...]:
+    def term_names(self, spec: RobotConstants) -> tuple[str, ...]:
         return tuple(c for c in self.columns if c != "internal_force"
                      or spec.has_internal_force)
 
@@ -164,7 +163,7 @@ class GoalTask(Task):
     goal_dist: tuple[float, float] = (1.0, 3.0)
     n_rays = 0
 
-    def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
+    def __init__(self, core: BatchView, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
         N = core.num
         self.goal = np.zeros((N, 3))
@@ -232,7 +231,7 @@ class NavigateTask(GoalTask):
     n_rays = 16
     max_range = 3.0
 
-    def __init__(self, core: WheelCore, weights: Mapping[str, float] | None,
+    def __init__(self, core: BatchView, weights: Mapping[str, float] | None,
                  range_backend: str = "analytic") -> None:
         from wheelgym.world import Arena
 
@@ -367,7 +366,7 @@ class TrackTask(Task):
     Each row holds its reference object and a window of its control steps (pose, body twist,
     twist rate); the window moves on when a preview would leave it, and all due rows of one
     reference class are evaluated in one NumPy pass
-    (:func:`~wheelgym.tasks.references.evaluate_batch`), so memory per row is fixed whatever
+    (:func:`~wheelgym.kinematics.references.evaluate_batch`), so memory per row is fixed whatever
     the episode length, and the reference never runs out (any ``max_episode_steps``, ``None``
     included): the circle and the figure-eight go on lapping, the quintic circle rests at its
     end pose after its ``duration`` (its rest-to-rest time law). A batch of more than
@@ -377,7 +376,7 @@ class TrackTask(Task):
     short window costs the single env ~4 us a step). All hold the same values
     (element-wise evaluation).
 
-    Reset options: ``reference`` (a :class:`~wheelgym.tasks.references.Reference`, followed
+    Reset options: ``reference`` (a :class:`~wheelgym.kinematics.references.Reference`, followed
     from its time 0 as placed, no random rotation or offset) and ``start`` (the robot's start
     pose instead of the reference's first pose).
     """
@@ -401,7 +400,7 @@ class TrackTask(Task):
     max_table = 4096
     option_keys = ("start", "reference")
 
-    def __init__(self, core: WheelCore, weights: Mapping[str, float] | None) -> None:
+    def __init__(self, core: BatchView, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
         N = core.num
         # steps ahead of the current one that are read: the previews and the baseline's k + 1

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelgym.models._base import Model, Params
+from wheelgym.models import Model, Params
 
 __all__ = ["RobotSpec", "RANDOMIZE_GROUPS"]
 

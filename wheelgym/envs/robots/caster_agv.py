@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
+import wheelgym.models.kernels.caster_agv as _kern
 from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
-from wheelgym.models.caster_agv import _C, _R, CasterAGV, CasterAGVParams, _deriv_one
+from wheelgym.models import CasterAGV, CasterAGVParams
+from wheelgym.models.kernels.caster_agv import P_C, P_R, deriv_one
 
-guard_cache(__file__, sys.modules[CasterAGV.__module__].__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
 
@@ -28,8 +29,8 @@ def _kpower(x, k, u, p):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # module docstring of caster_agv: thetadot_L,R = (v -+ c w) / r
-    out[0] = (x[3] - p[_C] * x[4]) / p[_R]
-    out[1] = (x[3] + p[_C] * x[4]) / p[_R]
+    out[0] = (x[3] - p[P_C] * x[4]) / p[P_R]
+    out[1] = (x[3] + p[P_C] * x[4]) / p[P_R]
 
 
 @njit(cache=True, inline="always")
@@ -47,12 +48,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)

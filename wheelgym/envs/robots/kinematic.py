@@ -7,25 +7,18 @@ joint rates are reported as empty, and the motor work stays 0.
 from __future__ import annotations
 
 import math
-import sys
 from functools import partial
 
 import numpy as np
 from numba import njit
 
-import wheelgym.models.friction as _friction
+import wheelgym.models.kernels.kinematic as _kern
 from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
-from wheelgym.models.kinematic import (
-    Ackermann,
-    Bicycle,
-    DifferentialDrive,
-    Unicycle,
-    _deriv_one,
-    _effective,
-)
+from wheelgym.models import Ackermann, Bicycle, DifferentialDrive, Unicycle
+from wheelgym.models.kernels.kinematic import deriv_one, effective
 
-guard_cache(__file__, sys.modules[Unicycle.__module__].__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__)
 
 __all__ = ["UNICYCLE", "BICYCLE", "DIFFDRIVE", "ACKERMANN"]
 
@@ -43,7 +36,7 @@ def _jrate(x, p, out):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
-    v, w, _ = _effective(x, u, p)  # the saturated command the derivative integrates
+    v, w, _ = effective(x, u, p)  # the saturated command the derivative integrates
     pose[0] = x[0]
     pose[1] = x[1]
     pose[2] = x[2]
@@ -58,12 +51,12 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(_deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(_deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
+import wheelgym.models.kernels.skid_steer as _kern
 from wheelgym.envs.robots._body import (
     env_step_block,
     env_step_blocks,
@@ -16,18 +15,10 @@ from wheelgym.envs.robots._body import (
 )
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.integrators import LANES
-from wheelgym.models.skid_steer import (
-    _C,
-    _R,
-    _XICR,
-    SkidSteer,
-    SkidSteerParams,
-    _deriv_one,
-    _k_block,
-    _power_t,
-)
+from wheelgym.models import SkidSteer, SkidSteerParams
+from wheelgym.models.kernels.skid_steer import P_C, P_R, P_XICR, deriv_one, k_block, power_t
 
-guard_cache(__file__, sys.modules[SkidSteer.__module__].__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
 
@@ -35,8 +26,8 @@ __all__ = ["SPEC"]
 @njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # SS-1: omega_L = (vx - c wz)/r, omega_R = (vx + c wz)/r, motors [1, 2, 3, 4] = [L, L, R, R]
-    wl = (x[3] - p[_C] * x[4]) / p[_R]
-    wr = (x[3] + p[_C] * x[4]) / p[_R]
+    wl = (x[3] - p[P_C] * x[4]) / p[P_R]
+    wr = (x[3] + p[P_C] * x[4]) / p[P_R]
     out[0] = wl
     out[1] = wl
     out[2] = wr
@@ -49,7 +40,7 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
     pose[1] = x[1]
     pose[2] = x[2]
     twist[0] = x[3]
-    twist[1] = -p[_XICR] * x[4]  # SS-1 ICR constraint
+    twist[1] = -p[P_XICR] * x[4]  # SS-1 ICR constraint
     twist[2] = x[4]
     return 0.0
 
@@ -57,14 +48,14 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     if X.shape[0] < LANES:  # the single env: a row at a time (the same bits as the blocks)
-        return env_step_body(_deriv_one, _power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+        return env_step_body(deriv_one, power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
                              F)
-    return env_step_blocks(_k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_blocks(k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_block(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
-    env_step_block(_k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
+    env_step_block(k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
 
 
 @njit(cache=True, parallel=True)

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 from numba import njit
 
 import wheelgym.models.friction as _friction
+import wheelgym.models.kernels.three_wheel as _kern
 from wheelgym.envs.robots._body import (
     env_step_block,
     env_step_blocks,
@@ -16,24 +16,22 @@ from wheelgym.envs.robots._body import (
     env_step_body,
 )
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
-from wheelgym.integrators import LANES
-from wheelgym.integrators import fma as _fma
-from wheelgym.models.three_wheel import (
-    _INVD,
-    _INVR,
-    ThreeWheel,
-    ThreeWheelParams,
-    _deriv_one,
-    _dot3,
-    _gh,
-    _jrows_i,
-    _k_block,
-    _power_t,
-    _solve3,
-    _trig,
+from wheelgym.integrators import LANES, fma
+from wheelgym.models import ThreeWheel, ThreeWheelParams
+from wheelgym.models.kernels.three_wheel import (
+    P_INVD,
+    P_INVR,
+    deriv_one,
+    dot3,
+    gh,
+    jacobian_rows,
+    k_block,
+    power_t,
+    solve3,
+    trig,
 )
 
-guard_cache(__file__, sys.modules[ThreeWheel.__module__].__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__)
 
 __all__ = ["SPEC"]
 
@@ -41,34 +39,34 @@ __all__ = ["SPEC"]
 @njit(cache=True, inline="always")
 def _jrate(x, p, out):  # pragma: no cover - compiled
     # TW-1: thetadot_i = g_i.u / r, psidot_i = h_i.u / d - wz; motor order [drive, steer]
-    # (the products with 1/r, 1/d that _deriv_one's rates use)
-    cs = _trig(x[6], x[7], x[8])
+    # (the products with 1/r, 1/d that deriv_one's rates use)
+    cs = trig(x[6], x[7], x[8])
     vx = x[3]
     vy = x[4]
     wz = x[5]
     for i in range(3):
-        g, h = _gh(cs, i, p)
-        out[i] = _dot3(g, vx, vy, wz) * p[_INVR]
-        out[3 + i] = _fma(_dot3(h, vx, vy, wz), p[_INVD], -wz)
+        g, h = gh(cs, i, p)
+        out[i] = dot3(g, vx, vy, wz) * p[P_INVR]
+        out[3 + i] = fma(dot3(h, vx, vy, wz), p[P_INVD], -wz)
 
 
 @njit(cache=True, inline="always")
 def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
-    cs = _trig(x[6], x[7], x[8])  # (cos psi_1, sin psi_1, ...), the model's sin/cos
+    cs = trig(x[6], x[7], x[8])  # (cos psi_1, sin psi_1, ...), the model's sin/cos
     for k in range(3):
         pose[k] = x[k]
         twist[k] = x[3 + k]
         feat[k] = cs[2 * k]
         feat[3 + k] = cs[2 * k + 1]
     # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36));
-    # J's rows as tuples (no array per row), the model's _jrows_i (TW-1): drive rows g_i / r,
+    # J's rows as tuples (no array per row), the model's jacobian_rows (TW-1): drive rows g_i / r,
     # then steer rows h_i / d - e_3
-    g, h = _gh(cs, 0, p)
-    jd1, js1 = _jrows_i(g, h, p)
-    g, h = _gh(cs, 1, p)
-    jd2, js2 = _jrows_i(g, h, p)
-    g, h = _gh(cs, 2, p)
-    jd3, js3 = _jrows_i(g, h, p)
+    g, h = gh(cs, 0, p)
+    jd1, js1 = jacobian_rows(g, h, p)
+    g, h = gh(cs, 1, p)
+    jd2, js2 = jacobian_rows(g, h, p)
+    g, h = gh(cs, 2, p)
+    jd3, js3 = jacobian_rows(g, h, p)
     J = (jd1, jd2, jd3, js1, js2, js3)
     m00 = m01 = m02 = m11 = m12 = m22 = 0.0
     f0 = f1 = f2 = 0.0
@@ -83,7 +81,7 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
         f0 += j[0] * u[k]
         f1 += j[1] * u[k]
         f2 += j[2] * u[k]
-    y0, y1, y2 = _solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
+    y0, y1, y2 = solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
     s = 0.0
     for k in range(6):
         j = J[k]
@@ -95,14 +93,14 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     if X.shape[0] < LANES:  # the single env: a row at a time (the same bits as the blocks)
-        return env_step_body(_deriv_one, _power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+        return env_step_body(deriv_one, power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
                              F)
-    return env_step_blocks(_k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_blocks(k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_block(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
-    env_step_block(_k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
+    env_step_block(k_block, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
 
 
 @njit(cache=True, parallel=True)

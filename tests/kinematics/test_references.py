@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from wheelgym.tasks.references import (
+from wheelgym.kinematics.references import (
     Circle,
     FigureEight,
     Line,

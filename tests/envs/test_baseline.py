@@ -6,8 +6,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import wheelgym  # noqa: F401
-from wheelgym.control.baseline import baseline
+import wheelgym
+from wheelgym.envs.baseline import baseline
 
 
 def _episode(env, pol, seed, rng=None):
@@ -61,6 +61,31 @@ def test_baseline_navigate_beats_random(robot):
     assert base >= 0.75 and base >= rand + 0.5
 
 
+@pytest.mark.parametrize("robot,mode", [("Bicycle", "VehicleSpeedSteeringAngle"),
+                                        ("Bicycle", "VehicleSpeedHeadingRate"),
+                                        ("Ackermann", "VehicleSpeedSteeringRate")])
+def test_car_like_baseline_meets_the_goal_pose_on_50_seeds(robot, mode):
+    """A Reeds-Shepp path to the goal pose, tracked forwards and backwards: the 0.1 m and
+    0.2 rad tolerance on >= 90% of 50 seeds (the twist baseline met it on 3 of 50)."""
+    env = gym.make(f"wheelgym/{robot}-v0", task="goal", action_mode=mode)
+    pol = baseline(env)
+    wins = [_episode(env, pol, s)[0]["is_success"] for s in range(50)]
+    assert np.mean(wins) >= 0.9
+
+
+def test_car_like_baseline_replans_for_a_batch_and_a_new_goal():
+    venv = gym.make_vec("wheelgym/Bicycle-v0", num_envs=3, task="goal")
+    pol = baseline(venv)
+    venv.reset(seed=5)
+    done = np.zeros(3, dtype=bool)
+    for _ in range(500):
+        _, _, te, tr, info = venv.step(pol.predict(None)[0])
+        done |= te & info["is_success"]
+        if done.all():
+            break
+    assert done.all()  # each row followed its own plan, replanned at its autoreset
+
+
 @pytest.mark.parametrize("robot", ["CasterAGV", "DiffDrive", "Unicycle"])
 def test_baseline_drives_other_robots_to_goals(robot):
     env = gym.make(f"wheelgym/{robot}-v0", task="goal")
@@ -87,3 +112,13 @@ def test_baseline_on_a_batched_core_matches_single():
 def test_baseline_rejects_non_wheelgym_env():
     with pytest.raises(TypeError, match="wheelgym"):
         baseline(gym.make("Pendulum-v1"))
+
+
+def test_root_baseline_is_the_envs_baseline():
+    from wheelgym.envs.baseline import BaselinePolicy
+
+    env = gym.make("wheelgym/DiffDrive-v0", task="goal")
+    obs, _ = env.reset(seed=0)
+    policy = wheelgym.baseline(env)
+    assert isinstance(policy, BaselinePolicy)
+    np.testing.assert_array_equal(policy.predict(obs)[0], baseline(env).predict(obs)[0])

@@ -1,11 +1,11 @@
 """The analytic baseline as a policy: drives any wheelgym environment from privileged state.
 
-``policy = baseline(env)`` unwraps ``env`` to its :class:`~wheelgym.envs.core.WheelCore` (a
-single environment, any wrapper stack, or a batched core / vector env exposing ``core``) and
-returns a :class:`BaselinePolicy` with the Stable-Baselines3 ``predict`` signature, so one
-evaluation loop scores a trained agent and the baseline. It reads the core's true state, goal,
-reference and range readings (not the observation), and outputs actions in the env's action
-space:
+``policy = wheelgym.baseline(env)`` (this module's :func:`baseline`) unwraps ``env`` to its
+:class:`~wheelgym.envs.core.WheelCore` (a single environment, any wrapper stack, or a batched
+core / vector env exposing ``core``) and returns a :class:`BaselinePolicy` with the
+Stable-Baselines3 ``predict`` signature, so one evaluation loop scores a trained agent and the
+baseline. It reads the core's true state, goal, reference and range readings (not the
+observation), and outputs actions in the env's action space:
 
 1. a body-twist command from the task:
 
@@ -13,8 +13,11 @@ space:
      ``v_cap``), ``w = k_yaw e_yaw``;
    * goal, nonholonomic: drive the point without lateral velocity (SkidSteer: the ICR point
      ``(x_icr, 0)``, SS-1; the others: the axle centre) to the goal's, forwards or backwards,
-     then turn in place to the goal heading (bicycle/Ackermann: no turning in place, heading
-     not enforced);
+     then turn in place to the goal heading;
+   * goal, car-like (Bicycle, Ackermann: no turning in place): a Reeds-Shepp path to the goal
+     pose, planned at each episode's start and followed forwards and backwards by
+     :class:`~wheelgym.kinematics.car_tracking.CarTracker` (rear-axle feedback, replanning
+     when off the path), which gives the model's inputs directly;
    * track: the reference twist fed forward plus feedback on the body-frame error
      (ThreeWheel: per axis; nonholonomic: Kanayama's law);
    * navigate: the goal attraction plus a repulsion from every range reading closer than
@@ -35,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from wheelgym.envs.core import WheelCore
+
 # the compiled element-wise functions, not NumPy's: a batch must equal each of its robots bit
 # for bit on any CPU (NumPy's own loops depend on the CPU and the array's layout)
 from wheelgym.models import elementwise as ew
@@ -50,9 +55,7 @@ def _sq(a: np.ndarray) -> np.ndarray:
     return a * a
 
 
-def _find_core(env: Any):
-    from wheelgym.envs.core import WheelCore
-
+def _find_core(env: Any) -> WheelCore:
     seen = 0
     e = env
     while seen < 50:
@@ -81,7 +84,7 @@ class BaselinePolicy:
         w_cap: yaw-rate cap (rad/s).
     """
 
-    def __init__(self, core, v_cap: float = 0.6, w_cap: float = 1.5) -> None:
+    def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5) -> None:
         self.core = core
         spec = core.spec
         self.holonomic = spec.name == "ThreeWheel"
@@ -91,15 +94,20 @@ class BaselinePolicy:
         self.x_icr = float(getattr(core.base_params, "x_icr", 0.0))
         self._twist_ctl = None
         self._track_ctl = None
+        #: car-like robots on ``goal``: one Reeds-Shepp tracker per row, replanned when the
+        #: row starts an episode (its step counter is 0) or its goal changes
+        self._cars: list[Any] | None = None
+        if not self.turns_in_place and core.task_name == "goal":
+            from wheelgym.kinematics.car_tracking import CarTracker
+
+            self._cars = [CarTracker.from_model(core.model) for _ in range(core.num)]
+            self._car_goal = np.full((core.num, 3), np.nan)
         if spec.name in ("ThreeWheel", "SkidSteer"):
             from wheelgym.control.controllers import TrackingController, TwistController
 
-            gains = {"k_v": 1.0 / core.dt, "ctrl_dt": core.dt}
-            self._twist_ctl = TwistController(core.model, gains=gains)
-            if spec.name == "ThreeWheel":
-                self._track_ctl = TrackingController(core.model, gains={"ctrl_dt": core.dt})
-            else:
-                self._track_ctl = TrackingController(core.model, gains={"ctrl_dt": core.dt})
+            # the env's control period: the deadbeat twist loop and the friction look-ahead
+            self._twist_ctl = TwistController(core.model, ctrl_dt=core.dt)
+            self._track_ctl = TrackingController(core.model, ctrl_dt=core.dt)
 
     # ------------------------------------------------------------------ SB3 interface
     def predict(self, observation: Any = None, state: Any = None, episode_start: Any = None,
@@ -111,7 +119,9 @@ class BaselinePolicy:
         return (a[0] if single else a).astype(np.float32), None
 
     def reset(self) -> None:
-        """Nothing to forget (stateless)."""
+        """Forget the car-like robots' plans (they are replanned at the next call)."""
+        if self._cars is not None:
+            self._car_goal[:] = np.nan
 
     # ------------------------------------------------------------------ commands
     def actions(self) -> np.ndarray:
@@ -124,11 +134,26 @@ class BaselinePolicy:
                 pose = self._icr_reference(pose)
             tau, _ = self._track_ctl.torques(c.X, pose, tw, rate)
             return np.clip(tau / c.HI, -1.0, 1.0)
+        if self._cars is not None:
+            return self._car_actions()
         if task == "track":
             cmd = self._track_twist()
         else:
             cmd = self._goal_twist()
         return self._to_action(cmd)
+
+    def _car_actions(self) -> np.ndarray:
+        """Bicycle/Ackermann on ``goal``: each row's Reeds-Shepp tracker, its input vector
+        scaled onto the action range as :meth:`_kinematic_action` does."""
+        c = self.core
+        goal = c.task.goal
+        u = np.empty((c.num, c.m))
+        for i, car in enumerate(self._cars):
+            if c.steps[i] == 0 or not np.array_equal(goal[i], self._car_goal[i]):
+                car.reset(c.X[i], goal[i])
+                self._car_goal[i] = goal[i]
+            u[i] = car.action(c.X[i], c.dt)
+        return self._scale(u)
 
     def _goal_twist(self) -> np.ndarray:
         c = self.core
@@ -260,6 +285,11 @@ class BaselinePolicy:
             u = np.stack([vv, 4.0 * (psi_d - c.X[:, 3])], axis=1)
         else:  # VehicleSpeedHeadingRate
             u = np.stack([v, w], axis=1)
+        return self._scale(u)
+
+    def _scale(self, u: np.ndarray) -> np.ndarray:
+        """Physical inputs ``u`` onto the action range [-1, 1] (the rows' input bounds)."""
+        c = self.core
         mid = 0.5 * (c.HI + c.LO)
         half = np.maximum(0.5 * (c.HI - c.LO), 1e-12)
         return np.clip((u - mid) / half, -1.0, 1.0)

@@ -1,0 +1,135 @@
+"""Compiled pieces of the skid-steer robot (physics.md section 3), for every layer's kernels.
+
+The model (:class:`wheelgym.models.SkidSteer`), the environments' step kernel and the
+controllers inline these functions. They read the packed parameter array ``p`` of
+:meth:`SkidSteerParams.pack` through the ``P_*`` indices below.
+
+| name          | what                                                                  |
+|---------------|-----------------------------------------------------------------------|
+| ``loads``     | ``(N_rear, N_front)`` of SS-2                                         |
+| ``resist``    | ``Rbar`` of SS-2/SS-3 and the friction power                          |
+| ``deriv_block`` | the state derivative as a 5-tuple, branch-free (blocks)             |
+| ``deriv_one`` | the same into an array ``out`` (one state)                            |
+| ``power_t``   | motor power ``tau . omega`` (SS-1, SS-3)                              |
+| ``KERNELS``   | the model's batch kernels (integrators.model_kernels); ``k_block``    |
+|               | its vectorised block step                                             |
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from wheelgym import _numba_cache
+from wheelgym import integrators as _integrators
+from wheelgym.integrators import model_kernels
+from wheelgym.models import friction as _friction_module
+from wheelgym.models.friction import sgn_s, sincos
+
+# kernels here inline integrators.rk4_inplace, integrators.rk4_block and friction.sgn_s
+_numba_cache.guard(__file__, _integrators.__file__, _friction_module.__file__)
+
+__all__ = [
+    "P_M", "P_I", "P_A", "P_B", "P_C", "P_R", "P_XICR", "P_MUS", "P_MUL", "P_KS", "P_G",
+    "P_TMAX", "NP", "NX", "NU", "loads", "resist", "deriv_block", "deriv_one", "power_t",
+    "k_resist", "KERNELS", "k_block",
+]
+
+#: Indices into the packed parameter array (SkidSteerParams.pack).
+P_M, P_I, P_A, P_B, P_C, P_R, P_XICR, P_MUS, P_MUL, P_KS, P_G, P_TMAX = range(12)
+NP = 12  # length of the packed array
+NX = 5  # state size
+NU = 4  # input size
+
+
+# ---------------------------------------------------------------------------- compiled pieces
+@njit(cache=True, inline="always")
+def loads(p):  # pragma: no cover - compiled
+    """(N_rear, N_front) of SS-2."""
+    s = 2.0 * (p[P_A] + p[P_B])
+    return p[P_B] * p[P_M] * p[P_G] / s, p[P_A] * p[P_M] * p[P_G] / s
+
+
+@njit(cache=True, inline="always")
+def resist(vx, wz, p):  # pragma: no cover - compiled
+    """Rbar = (sum F_si, -x_icr sum F_li + M_r) of SS-2/SS-3 and the friction power (W, <= 0).
+
+    Grouped as in the skid-steer notes: the two wheels of a side share ``v_ix`` (``v_L``,
+    ``v_R``), the two wheels of an axle share ``v_iy`` (``v_F``, ``v_B``), so four smoothed
+    signs serve eight forces, and ``M_r`` is the notes' side/axle sum. With equal side
+    torques and ``wz = 0`` the two sides' forces are bitwise equal and ``M_r`` is exactly 0.
+    """
+    a, b, c, xicr, ks = p[P_A], p[P_B], p[P_C], p[P_XICR], p[P_KS]
+    n_rear, n_front = loads(p)
+    vy = -xicr * wz  # SS-1 ICR constraint vy + x_icr wz = 0
+    # SS-1 contact velocities v_ix = vx - wz y_i, v_iy = vy + wz x_i (y_i = +-c, x_i = -a, b)
+    v_l = vx - wz * c  # wheels 1, 2 (left)
+    v_r = vx + wz * c  # wheels 3, 4 (right)
+    v_f = vy + wz * b  # wheels 2, 3 (front)
+    v_b = vy - wz * a  # wheels 1, 4 (rear)
+    # SS-2: F_si = mu_s N_i sgn_s(v_ix), F_li = mu_l N_i sgn_s(v_iy)
+    s_l = p[P_MUS] * sgn_s(v_l, ks)
+    s_r = p[P_MUS] * sgn_s(v_r, ks)
+    l_f = p[P_MUL] * sgn_s(v_f, ks)
+    l_b = p[P_MUL] * sgn_s(v_b, ks)
+    fs_left = n_rear * s_l + n_front * s_l  # F_s1 + F_s2
+    fs_right = n_front * s_r + n_rear * s_r  # F_s3 + F_s4
+    fl_front = n_front * l_f + n_front * l_f  # F_l2 + F_l3
+    fl_rear = n_rear * l_b + n_rear * l_b  # F_l1 + F_l4
+    sum_fs = fs_left + fs_right
+    sum_fl = fl_front + fl_rear
+    # SS-2 M_r = sum x_i F_li - y_i F_si (skid-steer notes: -a(F_l1+F_l4) + b(F_l2+F_l3)
+    #   + c(-(F_s1+F_s2) + (F_s3+F_s4)))
+    m_r = b * fl_front - a * fl_rear + c * (fs_right - fs_left)
+    power = -(fs_left * v_l + fs_right * v_r + fl_front * v_f + fl_rear * v_b)
+    return sum_fs, -xicr * sum_fl + m_r, power  # SS-3 Rbar
+
+
+@njit(cache=True, inline="always")
+def deriv_block(x, u, p):  # pragma: no cover - compiled
+    """The state derivative as a 5-tuple. ``x``, ``u``, ``p`` are arrays or tuples read by
+    constant index only, so the block kernels (tuples, no branches) vectorise."""
+    yaw, vx, wz = x[2], x[3], x[4]
+    m, xicr = p[P_M], p[P_XICR]
+    vy = -xicr * wz  # SS-1
+    sy, cy = sincos(yaw)
+    r0, r1, _ = resist(vx, wz, p)
+    tau_l = u[0] + u[1]
+    tau_r = u[2] + u[3]
+    # SS-3: Mbar etadot = Bbar (tau_L, tau_R) - Cbar eta - Rbar,
+    #   Cbar eta = m x_icr (wz wz, -wz vx), Bbar = (1/r) [[1, 1], [-c, c]]
+    f0 = (tau_l + tau_r) / p[P_R] - m * xicr * wz * wz - r0
+    f1 = p[P_C] * (tau_r - tau_l) / p[P_R] + m * xicr * wz * vx - r1
+    # physics.md section 0 (three-wheel paper (15)-(16)), then SS-3
+    return (cy * vx - sy * vy, sy * vx + cy * vy, wz, f0 / m, f1 / (m * xicr * xicr + p[P_I]))
+
+
+@njit(cache=True)
+def deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    d = deriv_block(x, u, p)
+    for j in range(5):
+        out[j] = d[j]
+
+
+@njit(cache=True, inline="always")
+def power_t(x, k, u, p):  # pragma: no cover - compiled
+    """Motor power ``tau . omega`` (W) at state ``x``: the state holds no wheel angles, so
+    from SS-1 ``tau_L omega_L + tau_R omega_R = ((tau_L + tau_R) vx + c (tau_R - tau_L) wz)
+    / r`` (= Bbar (tau_L, tau_R) . eta of SS-3), one division."""
+    tl = u[0] + u[1]
+    tr = u[2] + u[3]
+    return ((tl + tr) * x[3] + p[P_C] * (tr - tl) * x[4]) / p[P_R]
+
+
+@njit(cache=True)
+def k_resist(E, p, out):  # pragma: no cover - compiled
+    for i in range(E.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = resist(E[i, 0], E[i, 1], p)
+
+
+# ---------------------------------------------------------------------------- batch kernels
+#: The model's batch kernels: the generic bodies of wheelgym.integrators with this robot's
+#: derivative (vectorised blocks of integrators.LANES robots).
+KERNELS = model_kernels(__name__, __file__, deriv_one, NX, NU, deriv_block, power_t, NP)
+#: ``k_block(X, U, P, h, n, out, work, b0)``: one vectorised block with the motor work (J),
+#: as ThreeWheel's; ``U`` read in its first 4 columns.
+k_block = KERNELS.block
