@@ -9,15 +9,18 @@ command                                 what it does
 ``wheelgym train --resume RUN``         continue a run from its last model or checkpoint
 ``wheelgym evaluate RUN``               table (Markdown + CSV), plots, optional video
 ``wheelgym tune CONFIG``                Optuna hyperparameter search; writes the best config
+                                        (``--storage URL``: workers on many machines)
 ``wheelgym tune --export NAME``         write the best config of an existing study
-``wheelgym benchmark [CONFIGS]``        configs x seeds -> one CSV row each (resumable)
+``wheelgym benchmark [CONFIGS]``        configs x seeds -> one CSV row each (resumable;
+                                        ``--ray ADDRESS``: as Ray tasks on a cluster)
 ``wheelgym benchmark --table``          the results table (Markdown) from that CSV
 ``wheelgym benchmark --curves OUT``     learning curves of the configs given, from that CSV
 ``wheelgym demo ID``                    watch (or save a GIF/MP4 of) the baseline driving
 ``wheelgym validate``                   the physics validation report
 ======================================= ==================================================
 
-Training commands need the ``train`` extra.
+Training commands need the ``train`` extra; ``--ray`` and PostgreSQL storages the ``cluster``
+extra.
 
 Exit status: 0 on success; 2 for an error in the arguments, a config or a run folder, and for
 files that cannot be read or written (one line on stderr: ``wheelgym <command>: error: ...``);
@@ -146,8 +149,13 @@ def _parser() -> argparse.ArgumentParser:
     u.add_argument("--timeout", type=_positive_float, default=None, metavar="SECONDS",
                    help="start no trial after this many seconds")
     u.add_argument("--storage", default=None, metavar="URL",
-                   help="Optuna storage: SQLAlchemy URL or SQLite file "
-                        "(default RUNS_ROOT/STUDY/study.db)")
+                   help="Optuna storage shared by the study's workers: SQLAlchemy URL "
+                        "(sqlite:///F.db, postgresql+psycopg://U:P@HOST/DB, mysql+pymysql://...), "
+                        "journal:///PATH.log or a .log path (a journal file on a shared file "
+                        "system), or a SQLite file (default RUNS_ROOT/STUDY/study.db)")
+    u.add_argument("--heartbeat", type=_positive_int, default=None, metavar="SECONDS",
+                   help="seconds between a running trial's heartbeats (default 30); a trial "
+                        "silent for 4x that is marked failed by the next worker")
     u.add_argument("--study-name", default=None,
                    help="study to create or continue (default <Robot>-<task>-<mode>-<algo>)")
     u.add_argument("--runs-root", type=Path, default=Path("runs/tune"),
@@ -182,8 +190,13 @@ def _parser() -> argparse.ArgumentParser:
                    help="evaluation episodes per seed (50)")
     b.add_argument("--budget", type=_positive_int, default=None,
                    help="training steps per run (default: each config's n_timesteps)")
-    b.add_argument("--workers", type=_positive_int, default=1,
-                   help="parallel training processes (1 torch and 1 numba thread each)")
+    b.add_argument("--workers", type=_positive_int, default=None,
+                   help="parallel training processes (1 torch and 1 numba thread each; "
+                        "default 1); with --ray: tasks at a time (local: its CPUs)")
+    b.add_argument("--ray", default=None, metavar="ADDRESS",
+                   help="run each (config, seed) as a Ray task: 'local' (a Ray instance in "
+                        "this process on 127.0.0.1), 'auto' (the cluster of `ray start` here) "
+                        "or HOST:PORT of a head node; needs the cluster extra")
     b.add_argument("--csv", type=Path, default=None,
                    help="results CSV, appended row by row; rows present are skipped "
                         "(default benchmarks/results/training.csv)")
@@ -301,7 +314,7 @@ def _cmd_tune(a: argparse.Namespace) -> int:
     tune(a.config, trials=a.trials, timesteps=a.timesteps, timeout=a.timeout, storage=a.storage,
          study_name=a.study_name, runs_root=a.runs_root, seed=a.seed, algo=a.algo,
          metric=a.metric, pruner=a.pruner, n_evals=a.evals, eval_episodes=a.eval_episodes,
-         out=a.out, enqueue_config=not a.no_enqueue, log=_print)
+         out=a.out, enqueue_config=not a.no_enqueue, heartbeat=a.heartbeat, log=_print)
     return 0
 
 
@@ -322,7 +335,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     if a.table or a.curves is not None:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
-                                ("--workers", a.workers != 1)) if v]
+                                ("--workers", a.workers is not None),
+                                ("--ray", a.ray is not None)) if v]
         if given:
             raise ValueError(f"--table and --curves read the CSV and train nothing; drop "
                              f"{', '.join(given)}")
@@ -343,7 +357,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     else:
         table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds,
                               episodes=a.episodes, budget=a.budget, runs_root=a.runs_root,
-                              csv_path=csv_path, workers=a.workers, log=_print)
+                              csv_path=csv_path, workers=a.workers, ray=a.ray, log=_print)
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")

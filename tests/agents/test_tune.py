@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sqlite3
 import subprocess
 import sys
 import time
@@ -105,6 +106,12 @@ def test_two_calls_on_one_storage_add_up_their_trials(tmp_path):
         tune(cfg, trials=1, **{**kw, "timesteps": 512})
 
 
+def _heartbeats(db) -> int:
+    """Rows of Optuna's heartbeat table in the SQLite storage ``db``."""
+    with sqlite3.connect(db) as con:
+        return con.execute("SELECT COUNT(*) FROM trial_heartbeats").fetchone()[0]
+
+
 def test_a_killed_workers_trial_is_marked_failed(tmp_path, monkeypatch):
     """The storage's heartbeat: a worker killed mid-trial leaves a RUNNING trial that the next
     worker on the study marks failed once its heartbeat is older than the grace period."""
@@ -120,9 +127,12 @@ def test_a_killed_workers_trial_is_marked_failed(tmp_path, monkeypatch):
             if db.is_file():
                 try:
                     study = optuna.load_study(study_name="k", storage=f"sqlite:///{db}")
-                    if study.trials and study.trials[0].state.name == "RUNNING":
+                    # RUNNING and its first heartbeat written (a trial killed before that has
+                    # none, and the heartbeat cannot tell it is stale)
+                    if study.trials and study.trials[0].state.name == "RUNNING" and \
+                            _heartbeats(db):
                         break
-                except KeyError:
+                except (KeyError, sqlite3.OperationalError):
                     pass
             time.sleep(0.5)
         else:

@@ -6,7 +6,8 @@ against the analytic baseline and a random policy on the same evaluation seeds.
 flushed and fsync'd, so a killed process loses at most its running jobs. Run again, it skips the
 jobs whose row is there (same config, seed, budget and evaluation episodes), so the table can be
 built over several sittings. ``workers`` > 1 runs jobs in parallel local processes, each with
-one torch and one numba thread; only the main process writes the CSV.
+one torch and one numba thread; ``ray`` runs them as Ray tasks instead, on this machine or a
+cluster (:mod:`wheelgym.agents.cluster`). Either way only the main process writes the CSV.
 
 Per config, before its jobs, the baseline and random policies are scored on the evaluation seeds
 (``EVAL_SEED + i``, ``i < episodes``, the agents' too), and the baseline once more on the seeds
@@ -44,7 +45,13 @@ import numpy as np
 
 import wheelgym.agents.train as train_mod
 from wheelgym.agents.common import make_single_env
-from wheelgym.agents.config import TrainConfig, configs_dir, load_config
+from wheelgym.agents.config import (
+    TrainConfig,
+    configs_dir,
+    load_config,
+    parse_config,
+    safe_load_config_yaml,
+)
 from wheelgym.agents.evaluate import _figure, applicable_metrics, evaluate_policy_episodes
 from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
 from wheelgym.agents.train import EVAL_HISTORY_SEED
@@ -204,6 +211,8 @@ class _Job:
     episodes: int
     runs_root: str
     levels: dict[str, Any] = field(default_factory=dict)
+    #: The config's file form, for a worker that cannot read ``path`` (another machine).
+    data: dict | None = None
 
     @property
     def key(self) -> tuple[str, int, int, int]:
@@ -213,7 +222,7 @@ class _Job:
 def _run_job(job: _Job) -> dict | None:
     """Train and score one (config, seed); the CSV row, or ``None`` when interrupted."""
     cpu0 = time.process_time()
-    config = load_config(job.path)
+    config = load_config(job.path) if job.data is None else parse_config(job.data, job.path)
     changes: dict[str, Any] = {"seed": job.seed, "n_timesteps": job.budget,
                                "eval_freq": _scaled_eval_freq(config, job.budget)}
     if os.environ.get(_WORKER_ENV):
@@ -350,21 +359,31 @@ def run_jobs(
     quick: bool = False,
     csv_path: str | Path = DEFAULT_CSV,
     runs_root: str | Path = "runs/benchmark",
-    workers: int = 1,
+    workers: int | None = None,
+    ray: str | None = None,
     log: Callable[[str], None] | None = None,
 ) -> BenchmarkSummary:
     """Train and score every (config, seed) whose row is not in ``csv_path`` yet; append rows.
 
     ``budget`` overrides each config's ``n_timesteps``; ``quick``: a tenth of each budget (at
-    least 2048 steps). Ctrl-C keeps the finished rows (running jobs stop and are dropped) and
-    re-raises ``KeyboardInterrupt``; a job that raised is reported in ``failed``.
+    least 2048 steps). ``workers``: parallel local processes (default 1); with ``ray`` (an
+    address: ``local``, ``auto`` or ``host:port``) the jobs are Ray tasks instead, ``workers``
+    then caps the tasks at a time (``local``: the instance's CPUs; default all), and a task
+    that raised is retried once. Ctrl-C keeps the finished rows (running jobs stop and are
+    dropped) and re-raises ``KeyboardInterrupt``; a job that raised is reported in ``failed``.
     """
     for name, value in (("seeds", seeds), ("episodes", episodes), ("workers", workers)):
+        if value is None and name == "workers":
+            continue
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if ray is not None and (not isinstance(ray, str) or not ray.strip()):
+        raise ValueError(f"ray must be 'local', 'auto' or 'host:port', got {ray!r}")
     if budget is not None and (not isinstance(budget, int) or budget < 1):
         raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
     csv_path, root = Path(csv_path), Path(runs_root)
+    if ray is not None:
+        root = root.resolve()  # a task's working folder is not the driver's
     if root.exists() and not root.is_dir():
         raise ValueError(f"runs root {str(root)!r} exists and is not a folder")
     if csv_path.is_dir():
@@ -380,13 +399,15 @@ def run_jobs(
             max(config.n_timesteps // 10, 2048) if quick else config.n_timesteps)
         for s in range(seeds):
             job = _Job(str(path), path.stem, s, steps, episodes, str(root))
+            if ray is not None:
+                job.data = safe_load_config_yaml(path)
             if job.key in done:
                 skipped += 1
             else:
                 jobs.append(job)
     if log is not None:
-        log(f"benchmark: {len(jobs)} run(s) to do, {skipped} already in {csv_path}; "
-            f"{workers} worker(s)")
+        where = (f"Ray at {ray}" if ray is not None else f"{workers or 1} worker(s)")
+        log(f"benchmark: {len(jobs)} run(s) to do, {skipped} already in {csv_path}; {where}")
     t0 = time.perf_counter()
     written = 0
     failed: list[str] = []
@@ -427,7 +448,12 @@ def run_jobs(
                 f"[{written}/{len(jobs)}]")
 
     interrupted = False
-    if workers == 1:
+    if ray is not None:
+        from wheelgym.agents.cluster import run_on_ray
+
+        interrupted = run_on_ray(jobs, ray, prepare=prepare, finish=finish, limit=workers,
+                                 log=log)
+    elif (workers or 1) == 1:
         for job in jobs:
             row = None
             try:
@@ -504,7 +530,8 @@ def run_benchmark(
     budget: int | None = None,
     runs_root: str | Path = "runs/benchmark",
     csv_path: str | Path = DEFAULT_CSV,
-    workers: int = 1,
+    workers: int | None = None,
+    ray: str | None = None,
     log: Callable[[str], None] | None = None,
 ) -> str:
     """:func:`run_jobs`, then the Markdown table of this call's configs, budgets and episodes.
@@ -517,7 +544,8 @@ def run_benchmark(
     n_eps = episodes if episodes is not None else (5 if quick else 50)
     paths = [Path(p) for p in configs] if configs else default_configs()
     summary = run_jobs(paths, seeds=n_seeds, episodes=n_eps, budget=budget, quick=quick,
-                       csv_path=csv_path, runs_root=runs_root, workers=workers, log=log)
+                       csv_path=csv_path, runs_root=runs_root, workers=workers, ray=ray,
+                       log=log)
     wanted = set()
     for p in paths:
         c = load_config(p)

@@ -9,14 +9,21 @@ evaluation). The trial's value is its last evaluation's ``metric``: mean return 
 maximised), success rate (maximised) or RMS tracking error (``track``; minimised).
 
 The study lives in an Optuna storage: by default a SQLite file ``<runs_root>/<study>/study.db``;
-``storage`` takes any SQLAlchemy URL (``sqlite:///path.db``, ``postgresql://...``,
-``mysql://...``) or a plain file path (SQLite). Many processes, on one machine or many against
-one database server, can work on one study: Optuna coordinates them through the storage. A
-heartbeat (:data:`HEARTBEAT_S`) marks the trial of a killed worker failed after
-:data:`GRACE_S` seconds. A study is resumed by name (another call adds its trials); a call whose
-config, budget or metric differ from the study's is refused. Each trial's run folder lies under
-``<runs_root>/<study>/``. A new study's first trial is the config's own hyperparameters (those
-inside the search space), so the search starts from the config as written.
+``storage`` takes any SQLAlchemy URL (``sqlite:///path.db``,
+``postgresql+psycopg://user:pass@host/db``, ``mysql+pymysql://...``), a journal file
+(``journal:///abs/path.log``, or a path ending in ``.log``: Optuna's ``JournalStorage`` with its
+file backend, for a shared file system where no database server runs) or a plain file path
+(SQLite). Many processes, on one machine or many against one database server, work on one
+study: Optuna coordinates them through the storage. On a database, a heartbeat (every
+:data:`HEARTBEAT_S` seconds, or ``heartbeat``) lets the next worker mark the trial of a killed
+worker failed once it has been silent for :data:`GRACE_S` seconds (4x ``heartbeat``); a journal
+file has no heartbeat (such a trial stays RUNNING, not counted). A study is resumed by name
+(another call adds its trials); a call whose config, budget or metric differ from the study's
+is refused. Each trial's run folder lies under ``<runs_root>/<study>/``, and with a ``storage``
+given (a study that workers share) under ``<runs_root>/<study>/<host>-<pid>/``: one folder per
+worker. A new study's first trial is the config's own hyperparameters (those inside the search
+space), so the search starts from the config as written; with a ``storage`` given the sampler
+is seeded with the worker too, so that workers started together draw different trials.
 
 At the end the best trial's hyperparameters are written as a config in the RL Zoo layout
 (``<runs_root>/<study>/best.yml`` or ``out``): the config with the tuned keys, its own
@@ -46,8 +53,10 @@ import copy
 import math
 import os
 import re
+import socket
 import time
 import warnings
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -222,26 +231,50 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("._") or "study"
 
 
+#: File name endings read as a journal file (not SQLite) when given as a plain path.
+JOURNAL_SUFFIXES = (".log", ".journal")
+
+
 def _storage_url(storage: str | Path) -> str:
     text = str(storage)
     if "://" in text:
         return text
-    return f"sqlite:///{Path(text).expanduser().resolve()}"
+    path = Path(text).expanduser().resolve()
+    return f"journal://{path}" if path.suffix in JOURNAL_SUFFIXES else f"sqlite:///{path}"
 
 
-def make_storage(storage: str | Path):
-    """An Optuna ``RDBStorage`` with a heartbeat for a URL or a SQLite file path."""
+def _journal_file(url: str) -> Path | None:
+    if not url.startswith("journal://"):
+        return None
+    rest = url[len("journal://"):]
+    if not rest.startswith("/"):
+        raise ValueError(f"--storage {url!r}: a journal URL is journal:///ABSOLUTE/PATH.log")
+    return Path(rest)
+
+
+def make_storage(storage: str | Path, heartbeat: int | None = None):
+    """An Optuna storage for a URL or a file path: ``RDBStorage`` with a heartbeat (every
+    ``heartbeat`` seconds, grace 4x; default :data:`HEARTBEAT_S` and :data:`GRACE_S`), or a
+    ``JournalStorage`` on a file for ``journal:///path`` and ``*.log`` paths."""
     import optuna
 
     url = _storage_url(storage)
+    journal = _journal_file(url)
+    if journal is not None:
+        if not journal.parent.is_dir():
+            raise ValueError(f"--storage {url!r}: folder {str(journal.parent)!r} does not exist")
+        from optuna.storages.journal import JournalFileBackend
+
+        return optuna.storages.JournalStorage(JournalFileBackend(str(journal)))
     kwargs: dict[str, Any] = {}
     if url.startswith("sqlite"):
         kwargs["engine_kwargs"] = {"connect_args": {"timeout": 60}}  # waits, not "locked"
+    beat, grace = (HEARTBEAT_S, GRACE_S) if heartbeat is None else (heartbeat, 4 * heartbeat)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=HEARTBEAT_S,
-                                              grace_period=GRACE_S, **kwargs)
+            return optuna.storages.RDBStorage(url, heartbeat_interval=beat,
+                                              grace_period=grace, **kwargs)
     except Exception as e:  # SQLAlchemy's URL, driver and connection errors
         raise ValueError(f"--storage {text_of(url)!r}: {type(e).__name__}: "
                          f"{' '.join(str(e).split())[:300]}") from None
@@ -260,7 +293,7 @@ def _load_study(name: str, storage: str | Path):
     import optuna
 
     url = _storage_url(storage)
-    path = _sqlite_file(url)
+    path = _sqlite_file(url) or _journal_file(url)
     if path is not None and not path.is_file():
         raise ValueError(f"no study storage at {str(path)!r} (give --storage)")
     store = make_storage(url)
@@ -389,6 +422,7 @@ def tune(
     eval_episodes: int | None = None,
     out: str | Path | None = None,
     enqueue_config: bool = True,
+    heartbeat: int | None = None,
     log: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Run (or continue) an Optuna study on ``config``; write the best config at the end.
@@ -397,7 +431,8 @@ def tune(
     steps per trial (default the config's ``n_timesteps``); ``timeout``: seconds after which no
     new trial starts; ``algo``: tune another algorithm than the config's (``ppo``, ``sac``,
     ``td3``); ``metric``: one of :data:`METRICS`; ``pruner``: one of :data:`PRUNERS`;
-    ``n_evals``: evaluations per trial (pruning points). Ctrl-C stops the running trial (marked
+    ``n_evals``: evaluations per trial (pruning points); ``heartbeat``: seconds between a
+    running trial's heartbeats on a database storage. Ctrl-C stops the running trial (marked
     failed), still writes the best config so far and re-raises ``KeyboardInterrupt``.
     """
     import optuna
@@ -409,7 +444,7 @@ def tune(
     _check_choice("metric", metric, METRICS)
     _check_choice("pruner", pruner, PRUNERS)
     for name, value in (("trials", trials), ("timesteps", timesteps), ("n_evals", n_evals),
-                        ("eval_episodes", eval_episodes)):
+                        ("eval_episodes", eval_episodes), ("heartbeat", heartbeat)):
         if value is not None and (not isinstance(value, int) or value < 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     if timeout is not None and not (timeout > 0 and math.isfinite(timeout)):
@@ -437,30 +472,38 @@ def tune(
     if storage is None:
         study_dir.mkdir(parents=True, exist_ok=True)
     url = _storage_url(study_dir / "study.db" if storage is None else storage)
-    store = make_storage(url)
+    store = make_storage(url, heartbeat=heartbeat)
     study_dir.mkdir(parents=True, exist_ok=True)
     try:
         n_before = len(optuna.load_study(study_name=name, storage=store).trials)
     except KeyError:
         n_before = 0
-    sampler = optuna.samplers.TPESampler(seed=seed + n_before)
+    worker = _slug(f"{socket.gethostname()}-{os.getpid()}")
+    sampler_seed = seed + n_before
+    trials_dir = study_dir
+    if storage is not None:  # a shared study: this worker's folder, its own draws
+        trials_dir = study_dir / worker
+        sampler_seed = (sampler_seed + zlib.crc32(worker.encode())) % 2**32
+    sampler = optuna.samplers.TPESampler(seed=sampler_seed)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(storage=store, study_name=name, direction=direction,
                                 sampler=sampler, pruner=_make_pruner(pruner, steps),
                                 load_if_exists=True)
     identity = {"base_config": base, "timesteps": steps, "metric": metric,
                 "eval_episodes": episodes, "n_evals": n_evals}
-    attrs = study.user_attrs
-    if "base_config" in attrs:
-        diff = sorted(k for k, v in identity.items() if attrs.get(k) != v)
-        if diff:
-            raise ValueError(
-                f"study {name!r} in {text_of(url)} was made with other {', '.join(diff)} "
-                f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, base "
-                f"{attrs.get('source')}); give another --study-name or the same settings")
-    else:
+    if "base_config" not in study.user_attrs:  # a new study: base_config is written last, so
+        # a worker that sees it sees the others (workers started together all write them)
         for k, v in {**identity, "seed": seed, "source": config.source, "algo": algo}.items():
-            study.set_user_attr(k, v)
+            if k != "base_config":
+                study.set_user_attr(k, v)
+        study.set_user_attr("base_config", base)
+    attrs = study.user_attrs
+    diff = sorted(k for k, v in identity.items() if attrs.get(k) != v)
+    if diff:
+        raise ValueError(
+            f"study {name!r} in {text_of(url)} was made with other {', '.join(diff)} "
+            f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, base "
+            f"{attrs.get('source')}); give another --study-name or the same settings")
     if direction != study.direction.name.lower():
         raise ValueError(f"study {name!r} is to {study.direction.name.lower()}, metric {metric!r} "
                          f"to {direction}")
@@ -480,6 +523,7 @@ def tune(
                                     eval_episodes=episodes, checkpoint_freq=0)
         trial.set_user_attr("config", data)
         trial.set_user_attr("seed", seed + trial.number)
+        trial.set_user_attr("worker", worker)
         cfg = parse_config(data, source=f"{config.source} (trial {trial.number})")
         values: list[float] = []
         pruned = False
@@ -497,7 +541,7 @@ def tune(
             return True
 
         try:
-            result = train(cfg, runs_root=study_dir, progress=False, on_eval=on_eval)
+            result = train(cfg, runs_root=trials_dir, progress=False, on_eval=on_eval)
         except Exception as e:
             trial.set_user_attr("error", f"{type(e).__name__}: {' '.join(str(e).split())[:300]}")
             raise
@@ -538,7 +582,8 @@ def tune(
         budget = f"{trials} trial(s)" if trials is not None else "trials"
         limit = f" for up to {timeout:g} s" if timeout is not None else ""
         log(f"study {name!r} ({text_of(url)}): {n_before} trial(s) so far; running {budget} of "
-            f"{steps} steps{limit}, {algo.upper()}, metric {metric}, pruner {pruner}")
+            f"{steps} steps{limit}, {algo.upper()}, metric {metric}, pruner {pruner}; worker "
+            f"{worker}, runs in {trials_dir}")
     t0 = time.perf_counter()
     interrupted = False
     try:
