@@ -38,10 +38,7 @@ KNOWN_UPWARD: set[tuple[str, str]] = set()
 
 #: (importer, owner module): the private names (``<module>``: the private module itself) that
 #: the importer still reads from another package; to become public kernel modules.
-KNOWN_PRIVATE: dict[tuple[str, str], set[str]] = {
-    ("wheelgym.envs.core", "wheelgym.tasks._kernels"): {"<module>"},
-    ("wheelgym.vector.env", "wheelgym.envs.robots._body"): {"<module>"},
-}
+KNOWN_PRIVATE: dict[tuple[str, str], set[str]] = {}
 
 
 def _module_name(path: Path) -> str:

@@ -51,6 +51,10 @@ class RobotDrawing(RobotConstants, Protocol):
         """Motors (0 for kinematic robots)."""
 
     @property
+    def n_steer_motor(self) -> int:
+        """The last ``n_steer_motor`` motors steer wheels 0, 1, ...; the others drive them."""
+
+    @property
     def geometry(self) -> Callable[[Any], dict]:
         """``geometry(params)``: footprint polygon, wheel radius and width."""
 
@@ -232,18 +236,19 @@ class Renderer:
         w = max(float(geom["wheel_width"]), 0.02) / 2
         tau = c.U[i]
         tmax = np.maximum(np.abs(c.HI[i]), 1e-9)
-        nm = c.spec.n_motor
+        ns = c.spec.n_steer_motor
+        nd = c.spec.n_motor - ns  # drive motors: wheels 0..nd-1; steer motors nd + k: wheel k
         for k, (bx, by, ang) in enumerate(wheels):
             ca, sa = math.cos(ang), math.sin(ang)
             corners = [(bx + ca * px - sa * py, by + sa * px + ca * py)
                        for px, py in ((r, w), (-r, w), (-r, -w), (r, -w))]
             pg.draw.polygon(self.surface, _WHEEL, [self._world(x, y, yaw, *q) for q in corners])
-            if k < nm and c.spec.name != "ThreeWheel" or (c.spec.name == "ThreeWheel" and k < 3):
+            if k < nd:
                 f = float(tau[k] / tmax[k]) * 0.35
                 pg.draw.line(self.surface, _DRIVE, self._world(x, y, yaw, bx, by),
                              self._world(x, y, yaw, bx + f * ca, by + f * sa), 3)
-            if c.spec.name == "ThreeWheel" and nm == 6:
-                f = float(tau[3 + k] / tmax[3 + k]) * 0.25
+            if k < ns:
+                f = float(tau[nd + k] / tmax[nd + k]) * 0.25
                 pg.draw.line(self.surface, _STEER, self._world(x, y, yaw, bx, by),
                              self._world(x, y, yaw, bx - f * sa, by + f * ca), 2)
 

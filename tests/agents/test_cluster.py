@@ -22,7 +22,7 @@ optuna = pytest.importorskip("optuna")
 pytest.importorskip("psycopg")
 pytest.importorskip("ray")
 
-from wheelgym.agents.benchmark import _Job, read_rows, run_jobs  # noqa: E402
+from wheelgym.agents.benchmark import _Job, _run_job, read_rows, run_jobs  # noqa: E402
 from wheelgym.agents.cluster import LocalPostgres, run_on_ray  # noqa: E402
 from wheelgym.agents.tune import make_storage  # noqa: E402
 from wheelgym.cli import main  # noqa: E402
@@ -183,8 +183,8 @@ def test_benchmark_on_ray_gives_the_local_rows(tmp_path, capsys):
         job = _Job(str(configs[0]), "bad", 0, 256, 1, str(tmp_path / "bad-runs"), data=bad)
         lines: list[str] = []
         errors: list[BaseException | None] = []
-        assert not run_on_ray([job], address, prepare=lambda j: j, log=lines.append,
-                              finish=lambda j, row, e: errors.append(e))
+        assert not run_on_ray([job], address, run=_run_job, prepare=lambda j: j,
+                              log=lines.append, finish=lambda j, row, e: errors.append(e))
         assert sum("retrying once" in line and "nosuch" in line for line in lines) == 1, lines
         assert len(errors) == 1 and isinstance(errors[0], ValueError), errors
         assert ray.is_initialized()  # a connection it did not make is left as it was

@@ -15,7 +15,7 @@ import pytest
 from tests.envs.conftest import DYNAMIC
 from wheelgym.envs.core import WheelCore
 from wheelgym.envs.robots import get_spec
-from wheelgym.envs.robots._body import layout
+from wheelgym.envs.robots.body import layout
 from wheelgym.integrators import LANES
 
 

@@ -13,7 +13,7 @@ import pytest
 from wheelgym.envs._dispatch import FasterKernel
 from wheelgym.envs.core import WheelCore
 from wheelgym.envs.robots import available_robots, get_spec
-from wheelgym.envs.robots._body import PAR_MIN_ROWS
+from wheelgym.envs.robots.body import PAR_MIN_ROWS
 
 N = PAR_MIN_ROWS + 7  # above the threshold, not a multiple of the thread count
 

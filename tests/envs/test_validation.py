@@ -11,7 +11,7 @@ import pytest
 
 import wheelgym  # noqa: F401
 from wheelgym.envs.core import MAX_CTRL_DT, MAX_SUBSTEPS
-from wheelgym.envs.robots._body import SPEED_BOUND
+from wheelgym.envs.robots.body import SPEED_BOUND
 from wheelgym.models.three_wheel import ThreeWheelParams
 from wheelgym.registration import env_id
 

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 import wheelgym.agents.train as train_mod
+from wheelgym.agents.cluster import WORKER_ENV, run_on_ray
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
     TrainConfig,
@@ -225,7 +226,7 @@ def _run_job(job: _Job) -> dict | None:
     config = load_config(job.path) if job.data is None else parse_config(job.data, job.path)
     changes: dict[str, Any] = {"seed": job.seed, "n_timesteps": job.budget,
                                "eval_freq": _scaled_eval_freq(config, job.budget)}
-    if os.environ.get(_WORKER_ENV):
+    if os.environ.get(WORKER_ENV):
         changes["torch_threads"] = 1
     config = config.replace(**changes)
     # Looked up on the module at call time, so a wrapped train_mod.train is the one called.
@@ -262,12 +263,9 @@ def _run_job(job: _Job) -> dict | None:
     return row
 
 
-_WORKER_ENV = "WHEELGYM_BENCHMARK_WORKER"
-
-
 def _worker_init() -> None:
     """A pool process: one torch thread, one numba thread; Ctrl-C is the training's to handle."""
-    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", _WORKER_ENV):
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", WORKER_ENV):
         os.environ[var] = "1"
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # train() installs its own handler meanwhile
     import numba
@@ -449,10 +447,8 @@ def run_jobs(
 
     interrupted = False
     if ray is not None:
-        from wheelgym.agents.cluster import run_on_ray
-
-        interrupted = run_on_ray(jobs, ray, prepare=prepare, finish=finish, limit=workers,
-                                 log=log)
+        interrupted = run_on_ray(jobs, ray, run=_run_job, prepare=prepare, finish=finish,
+                                 limit=workers, log=log)
     elif (workers or 1) == 1:
         for job in jobs:
             row = None

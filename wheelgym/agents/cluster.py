@@ -82,11 +82,14 @@ def connect_ray(address: str, num_cpus: int | None = None) -> bool:
     return kwargs["address"] == "local"
 
 
+#: Set to "1" in a benchmark worker's process (a local pool worker or a Ray task): the job
+#: trains on one torch thread.
+WORKER_ENV = "WHEELGYM_BENCHMARK_WORKER"
+
+
 def _limit_threads() -> None:
     """A Ray task's process: one torch thread, one numba thread (the task holds one CPU)."""
-    from wheelgym.agents.benchmark import _WORKER_ENV
-
-    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", _WORKER_ENV):
+    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", WORKER_ENV):
         os.environ[var] = "1"
     import numba
     import torch
@@ -95,23 +98,23 @@ def _limit_threads() -> None:
     numba.set_num_threads(1)
 
 
-def _ray_task(job: Any) -> dict | None:
+def _ray_task(run: Callable[[Any], dict | None], job: Any) -> dict | None:
     _limit_threads()
-    from wheelgym.agents.benchmark import _run_job
-
-    return _run_job(job)
+    return run(job)
 
 
 def run_on_ray(
     jobs: Sequence[Any],
     address: str,
     *,
+    run: Callable[[Any], dict | None],
     prepare: Callable[[Any], Any],
     finish: Callable[[Any, dict | None, BaseException | None], None],
     limit: int | None = None,
     log: Callable[[str], None] | None = None,
 ) -> bool:
-    """Run ``jobs`` (benchmark ``_Job``s) as Ray tasks, at most ``limit`` at a time (default
+    """Run ``jobs`` (benchmark ``_Job``s) as Ray tasks of ``run(job)`` (a module-level
+    function: Ray pickles it by reference), at most ``limit`` at a time (default
     all; with ``local``: the instance's CPUs), ``prepare`` each before it is submitted and pass
     each outcome to ``finish`` in the order they complete. A task that raises is logged and
     submitted once more; its second error goes to ``finish``. Returns ``True`` when stopped by
@@ -133,7 +136,7 @@ def run_on_ray(
         while queue or running:
             while queue and len(running) < cap:
                 job = prepare(queue.pop(0))
-                running[task.remote(job)] = (job, 1)
+                running[task.remote(run, job)] = (job, 1)
             done, _ = ray.wait(list(running), num_returns=1, timeout=1.0)
             for ref in done:
                 job, attempt = running.pop(ref)
@@ -146,7 +149,7 @@ def run_on_ray(
                         if log is not None:
                             log(f"  {job.name} seed {job.seed} failed on Ray ({_short(error)}); "
                                 "retrying once")
-                        running[task.remote(job)] = (job, 2)
+                        running[task.remote(run, job)] = (job, 2)
                     else:
                         finish(job, None, error)
                     continue

@@ -47,8 +47,10 @@ from wheelgym import integrators as _integrators
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
 from wheelgym.integrators import all_finite
+from wheelgym.models import elementwise as _elementwise
 from wheelgym.models import friction as _friction
 from wheelgym.models.caster_agv import CasterAGV
+from wheelgym.models.elementwise import wrap
 from wheelgym.models.kernels import caster_agv as _ca
 from wheelgym.models.kernels import skid_steer as _ss
 from wheelgym.models.kernels import three_wheel as _tw
@@ -56,7 +58,7 @@ from wheelgym.models.skid_steer import SkidSteer
 from wheelgym.models.three_wheel import ThreeWheel
 
 _numba_cache.guard(__file__, _distribution.__file__, _tw.__file__, _ss.__file__, _ca.__file__,
-             _friction.__file__, _integrators.__file__)
+             _friction.__file__, _integrators.__file__, _elementwise.__file__)
 
 __all__ = [
     "TwistGains",
@@ -187,12 +189,6 @@ def _make_gains(cls: type, gains: Any) -> Any:
 
 # ---------------------------------------------------------------------------- compiled pieces
 @njit(cache=True, inline="always")
-def _wrap(a):  # pragma: no cover - compiled
-    """Angle wrapped to [-pi, pi)."""
-    return a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
-
-
-@njit(cache=True, inline="always")
 def _saturate(tau, tmax):  # pragma: no cover - compiled
     """Scale ``tau`` uniformly into the limits; True if it had to."""
     worst = 0.0
@@ -256,7 +252,7 @@ def _tw_track_one(x, pose, tw, rate, p, tmax, kp, kd, dt, mode, tau):  # pragma:
     by = rate[1] + tw[2] * tw[0]
     awx = cr * bx - sr * by + kd * (rwx - vwx) + kp * (pose[0] - x[0])
     awy = sr * bx + cr * by + kd * (rwy - vwy) + kp * (pose[1] - x[1])
-    alpha = rate[2] + kd * (tw[2] - wz) + kp * _wrap(pose[2] - yaw)
+    alpha = rate[2] + kd * (tw[2] - wz) + kp * wrap(pose[2] - yaw)
     # back to the body twist rate: udot_lin = R^T a - wz S u_lin
     ud0 = cy * awx + sy * awy + wz * vy
     ud1 = -sy * awx + cy * awy - wz * vx
@@ -308,7 +304,7 @@ def _unicycle_law(px, py, yaw, v, w, pose, tw, rate, gains):  # pragma: no cover
     dx, dy = pose[0] - px, pose[1] - py
     ex = cy * dx + sy * dy
     ey = -sy * dx + cy * dy
-    eth = _wrap(pose[2] - yaw)
+    eth = wrap(pose[2] - yaw)
     vr, wr = tw[0], tw[2]
     vrd, wrd = rate[0], rate[2]
     if abs(vr) * kth > kwmax - kv:  # keep the sampled yaw-rate loop stable (class docstring)

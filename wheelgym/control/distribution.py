@@ -36,10 +36,19 @@ produces ``Q`` (status ``-1``).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numba import njit
+
+from wheelgym import _numba_cache
+from wheelgym import integrators as _integrators
+from wheelgym.models.kernels import three_wheel as _tw
+from wheelgym.models.kernels.three_wheel import solve3
+
+# internal_force_one inlines three_wheel.solve3 (and its integrators.fma)
+_numba_cache.guard(__file__, _tw.__file__, _integrators.__file__)
 
 __all__ = [
     "min_norm",
@@ -48,6 +57,7 @@ __all__ = [
     "null_space_projector",
     "null_space_basis",
     "internal_force",
+    "internal_force_one",
     "paper_distribution",
     "independent_joint_force",
     "skid_steer_split",
@@ -116,6 +126,19 @@ def _solve_inplace(A, b, n):  # pragma: no cover - compiled
     return True
 
 
+@njit(cache=True, inline="always")
+def _gram(J, w, G):  # pragma: no cover - compiled
+    """``G = J^T W J`` (``W = diag(w)``), symmetric, into ``G`` (k x k)."""
+    m, k = J.shape
+    for a in range(k):
+        for b in range(a, k):
+            acc = 0.0
+            for i in range(m):
+                acc += J[i, a] * w[i] * J[i, b]
+            G[a, b] = acc
+            G[b, a] = acc
+
+
 @njit(cache=True)
 def _wls_one(J, Q, w, out):  # pragma: no cover - compiled
     """``out = W J (J^T W J)^-1 Q``, ``W = diag(w)``: min ``sum tau_k^2 / w_k``, ``J^T tau = Q``.
@@ -128,13 +151,7 @@ def _wls_one(J, Q, w, out):  # pragma: no cover - compiled
     lam = np.empty(k)
     res = np.empty(k)
     for it in range(2):
-        for a in range(k):
-            for b in range(a, k):
-                acc = 0.0
-                for i in range(m):
-                    acc += J[i, a] * w[i] * J[i, b]
-                G[a, b] = acc
-                G[b, a] = acc
+        _gram(J, w, G)
         if it == 0:
             for a in range(k):
                 lam[a] = Q[a]
@@ -167,13 +184,7 @@ def _projector_one(J, w, P):  # pragma: no cover - compiled
     m, k = J.shape
     G = np.empty((k, k))
     e = np.empty(k)
-    for a in range(k):
-        for b in range(a, k):
-            acc = 0.0
-            for i in range(m):
-                acc += J[i, a] * w[i] * J[i, b]
-            G[a, b] = acc
-            G[b, a] = acc
+    _gram(J, w, G)
     Ginv = np.empty((k, k))
     for c in range(k):
         Gc = G.copy()
@@ -191,6 +202,40 @@ def _projector_one(J, w, P):  # pragma: no cover - compiled
                     acc += J[i, a] * Ginv[a, b] * J[j, b]
             P[i, j] = (1.0 if i == j else 0.0) - w[i] * acc
     return True
+
+
+@njit(cache=True, inline="always")
+def internal_force_one(J, tau, out):  # pragma: no cover - compiled
+    """``|P tau|`` with ``P tau = tau - J (J^T J)^-1 J^T tau`` for a three-column ``J``.
+
+    The internal force (TW-6, paper (36)): the one formula behind :func:`internal_force` and
+    the environments' ``info["internal_force"]``. ``J`` is read as ``J[i][a]``: an ``(m, 3)``
+    array or a tuple of ``m`` row tuples (the environment kernel's rows, no array per row);
+    ``J^T J`` is solved by cofactors (``three_wheel.solve3``). Writes ``P tau`` into ``out``
+    unless ``out`` is None; a singular ``J^T J`` gives non-finite values.
+    """
+    m00 = m01 = m02 = m11 = m12 = m22 = 0.0
+    f0 = f1 = f2 = 0.0
+    for k in range(len(J)):
+        j = J[k]
+        m00 += j[0] * j[0]
+        m01 += j[0] * j[1]
+        m02 += j[0] * j[2]
+        m11 += j[1] * j[1]
+        m12 += j[1] * j[2]
+        m22 += j[2] * j[2]
+        f0 += j[0] * tau[k]
+        f1 += j[1] * tau[k]
+        f2 += j[2] * tau[k]
+    y0, y1, y2 = solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
+    s = 0.0
+    for k in range(len(J)):
+        j = J[k]
+        e = tau[k] - (j[0] * y0 + j[1] * y1 + j[2] * y2)
+        if out is not None:
+            out[k] = e
+        s += e * e
+    return math.sqrt(s)
 
 
 @njit(cache=True, inline="always")
@@ -459,6 +504,12 @@ def _k_projector(J, P, ok):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _k_internal(J, T, out):  # pragma: no cover - compiled
+    for n in range(J.shape[0]):
+        internal_force_one(J[n], T[n], out[n])
+
+
+@njit(cache=True)
 def _k_null_basis(J, N, ok):  # pragma: no cover - compiled
     for n in range(J.shape[0]):
         ok[n] = _null_basis_one(J[n], N[n])
@@ -642,15 +693,31 @@ def internal_force(J: Any, tau: Any) -> np.ndarray:
     """The null-space component ``P tau`` of a torque vector (``(..., m)``, N·m).
 
     It produces no generalized force (``J^T P tau = 0``) and so no motion; ``tau - P tau`` is
-    the minimum-norm torque producing the same ``J^T tau``.
+    the minimum-norm torque producing the same ``J^T tau``. For three columns (a planar body
+    twist) it is :func:`internal_force_one`, the environments' formula; otherwise ``P`` of
+    :func:`null_space_projector` applied to ``tau``.
     """
     tau = np.asarray(tau, dtype=np.float64)
     if not np.all(np.isfinite(tau)):
         raise ValueError("tau must be finite")
-    P = null_space_projector(J)
-    if tau.shape[-1:] != P.shape[-1:]:
-        raise ValueError(f"tau must have shape (..., {P.shape[-1]}), got {tau.shape}")
-    return np.einsum("...ij,...j->...i", P, tau)
+    if np.ndim(J) < 2 or np.shape(J)[-1] != 3:
+        P = null_space_projector(J)
+        if tau.shape[-1:] != P.shape[-1:]:
+            raise ValueError(f"tau must have shape (..., {P.shape[-1]}), got {tau.shape}")
+        return np.einsum("...ij,...j->...i", P, tau)
+    J2, _, j_lead = _check_JQ(J, np.zeros(3))
+    m = J2.shape[1]
+    if tau.shape[-1:] != (m,):
+        raise ValueError(f"tau must have shape (..., {m}), got {tau.shape}")
+    lead = np.broadcast_shapes(j_lead, tau.shape[:-1])
+    J3 = np.ascontiguousarray(np.broadcast_to(J2.reshape(j_lead + (m, 3)), lead + (m, 3))
+                              .reshape(-1, m, 3))
+    T = np.ascontiguousarray(np.broadcast_to(tau, lead + (m,)).reshape(-1, m))
+    out = np.empty_like(T)
+    _k_internal(J3, T, out)
+    if not np.all(np.isfinite(out)):
+        raise ValueError("J^T J is singular: J has lost rank (a singular configuration)")
+    return out.reshape(lead + (m,))
 
 
 def _check_S(S: Any, m: int, k: int) -> tuple[np.ndarray, np.ndarray]:

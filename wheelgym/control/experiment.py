@@ -27,6 +27,7 @@ from wheelgym.control import distribution as _distribution
 from wheelgym.control.controllers import _tw_force
 from wheelgym.control.distribution import _wls_one
 from wheelgym.kinematics.references import QuinticCircle
+from wheelgym.models import elementwise as _elementwise
 from wheelgym.models import friction as _friction
 from wheelgym.models.kernels import three_wheel as _tw
 from wheelgym.models.three_wheel import ThreeWheel
@@ -34,7 +35,7 @@ from wheelgym.models.three_wheel import ThreeWheel
 __all__ = ["paper_experiment"]
 
 _numba_cache.guard(__file__, _controllers.__file__, _distribution.__file__, _tw.__file__,
-             _friction.__file__, _integrators.__file__)
+             _friction.__file__, _integrators.__file__, _elementwise.__file__)
 
 
 @njit(cache=True)

@@ -47,10 +47,6 @@ from wheelgym.models import elementwise as ew
 __all__ = ["baseline", "BaselinePolicy"]
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return ew.arctan2(ew.sin(a), ew.cos(a))
-
-
 def _sq(a: np.ndarray) -> np.ndarray:
     return a * a
 
@@ -87,8 +83,8 @@ class BaselinePolicy:
     def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5) -> None:
         self.core = core
         spec = core.spec
-        self.holonomic = spec.name == "ThreeWheel"
-        self.turns_in_place = spec.name not in ("Bicycle", "Ackermann")
+        self.holonomic = spec.holonomic
+        self.turns_in_place = spec.turns_in_place
         self.v_cap = float(v_cap)
         self.w_cap = float(w_cap)
         self.x_icr = float(getattr(core.base_params, "x_icr", 0.0))
@@ -102,7 +98,7 @@ class BaselinePolicy:
 
             self._cars = [CarTracker.from_model(core.model) for _ in range(core.num)]
             self._car_goal = np.full((core.num, 3), np.nan)
-        if spec.name in ("ThreeWheel", "SkidSteer"):
+        if spec.baseline_controllers:
             from wheelgym.control.controllers import TrackingController, TwistController
 
             # the env's control period: the deadbeat twist loop and the friction look-ahead
@@ -127,8 +123,7 @@ class BaselinePolicy:
     def actions(self) -> np.ndarray:
         c = self.core
         task = c.task_name
-        if task == "track" and not c.kinematic and self._track_ctl is not None \
-                and c.action_mode == "torque":
+        if task == "track" and self._track_ctl is not None and c.action_mode == "torque":
             pose, tw, rate = c.task.reference_at()
             if not self.holonomic:  # the controller steers the ICR point: shift its reference
                 pose = self._icr_reference(pose)
@@ -171,7 +166,7 @@ class BaselinePolicy:
         ex = cy * dx + sy * dy  # goal in B
         ey = -sy * dx + cy * dy
         dist = ew.hypot(ex, ey)
-        eyaw = _wrap(goal[:, 2] - pose[:, 2])
+        eyaw = ew.wrap_angle(goal[:, 2] - pose[:, 2])
         if navigate:  # potential field on the range ring (body-frame vector)
             ranges = c.task.ranges
             R = ranges.shape[1]
@@ -198,7 +193,7 @@ class BaselinePolicy:
             return cmd
         alpha = ew.arctan2(ey, ex)
         back = (np.abs(alpha) > 0.5 * math.pi) & (not navigate) & (dist < 1.5)
-        alpha_d = np.where(back, _wrap(alpha - math.pi), alpha)
+        alpha_d = np.where(back, ew.wrap_angle(alpha - math.pi), alpha)
         sgn = np.where(back, -1.0, 1.0)
         near = (dist < 0.05) & (not navigate) & self.turns_in_place
         v = sgn * np.clip(1.2 * dist * _sq(ew.cos(alpha_d)), 0.0, self.v_cap)
@@ -225,7 +220,7 @@ class BaselinePolicy:
         cy, sy = ew.cos(c.pose[:, 2]), ew.sin(c.pose[:, 2])
         ex = cy * dx + sy * dy
         ey = -sy * dx + cy * dy
-        eyaw = _wrap(pose[:, 2] - c.pose[:, 2])
+        eyaw = ew.wrap_angle(pose[:, 2] - c.pose[:, 2])
         cmd = np.zeros((c.num, 3))
         if self.holonomic:
             ce, se = ew.cos(eyaw), ew.sin(eyaw)
@@ -249,10 +244,10 @@ class BaselinePolicy:
     def _to_action(self, cmd: np.ndarray) -> np.ndarray:
         c = self.core
         spec = c.spec
-        if c.kinematic:
+        if spec.kinematic:
             return self._kinematic_action(cmd)
         twist = cmd if spec.twist_dim == 3 else cmd[:, [0, 2]]
-        if c.action_mode == "velocity":
+        if spec.tracks_twist(c.action_mode):
             return np.clip(twist / np.asarray(spec.twist_max), -1.0, 1.0)
         if self._twist_ctl is not None:
             tau, _ = self._twist_ctl.torques(c.X, twist)

@@ -9,6 +9,7 @@ batch reset with generator ``G`` is bit for bit the single environment reset wit
 Core API::
 
     core = WheelCore("ThreeWheel", num=N, task="goal", action_mode="torque", ...)
+    core = WheelCore(EnvConfig("ThreeWheel", task="goal"), num=N)  # the same
     obs = core.reset(rows, rngs, options)  # rows: index array; rngs: N generators
     obs, reward, terminated, info = core.step(actions)  # actions (N, action_dim)
 
@@ -21,16 +22,16 @@ batches), so an episode of any length sees it move on.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
 
 from wheelgym.envs._dispatch import FasterKernel
-from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
-from wheelgym.envs.robots._body import (
+from wheelgym.envs.config import MAX_CTRL_DT, MAX_SUBSTEPS, EnvConfig
+from wheelgym.envs.robots import RobotSpec, get_spec
+from wheelgym.envs.robots.body import (
     F_COLL,
     F_OK,
     F_SAT,
@@ -42,135 +43,106 @@ from wheelgym.envs.robots._body import (
     k_twist_command,
     layout,
 )
-from wheelgym.integrators import n_substeps
 from wheelgym.registration import DEFAULT_HORIZON
-from wheelgym.tasks._kernels import k_add1, k_noise
+from wheelgym.tasks.kernels import k_add1, k_noise
 from wheelgym.tasks.tasks import TASKS, NavigateTask, Task, TrackTask
 
-__all__ = ["WheelCore", "DEFAULT_HORIZON"]
+__all__ = ["WheelCore", "EnvConfig", "InfoKey", "INFO_KEYS", "DEFAULT_HORIZON", "MAX_CTRL_DT",
+           "MAX_SUBSTEPS"]
 
 
+class InfoKey(NamedTuple):
+    """One key of every step's ``info`` and where the core keeps it.
 
-#: Longest control period (s): a controller acting less than once a second leaves the robot
-#: open loop for seconds (the tasks' tolerances and speed limits assume ~0.05 s), and one step
-#: would integrate that whole stretch.
-MAX_CTRL_DT = 1.0
-#: Most RK4 substeps per control step (``ctrl_dt / sim_dt``): a substep costs about 1 us on
-#: one robot, so this caps one step near 10 ms (the default is 25-40 substeps; 1e-9 s took
-#: 25 s a step).
-MAX_SUBSTEPS = 10_000
+    ``block``: ``"B"`` (the float block: ``column`` is its ``layout`` entry; ``motors``: only
+    the first ``n_motor`` columns), ``"F"`` (the flag block: ``column`` its index; ``negate``:
+    reported as ``not``) or ``"terms"`` (the weighted reward terms, a dict by name)."""
+
+    name: str
+    block: str
+    column: str | int
+    motors: bool = False
+    negate: bool = False
+
+
+#: The step info of the single and the vector env, in order (``wheel_env.py``'s "Info" table);
+#: both build theirs from it (:meth:`WheelCore.info_columns`).
+INFO_KEYS: tuple[InfoKey, ...] = (
+    InfoKey("pose", "B", "pose"),
+    InfoKey("twist", "B", "twist"),
+    InfoKey("motor_torque", "B", "U", motors=True),
+    InfoKey("joint_velocity", "B", "jv", motors=True),
+    InfoKey("tracking_error", "B", "err"),
+    InfoKey("energy", "B", "energy"),
+    InfoKey("internal_force", "B", "xf"),
+    InfoKey("saturated", "F", F_SAT),
+    InfoKey("is_success", "F", F_SUCC),
+    InfoKey("numerical_failure", "F", F_OK, negate=True),
+    InfoKey("reward_terms", "terms", "terms"),
+)
+
 #: RK4 is stable for a real eigenvalue ``-lambda`` while ``lambda sim_dt`` is below this.
 RK4_REAL_STABILITY_LIMIT = 2.785
-
-
-def _check_dt(name: str, value: Any, high: float = math.inf) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a positive number of seconds, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and 0 < v <= high):
-        raise ValueError(f"{name} must be a positive finite number of seconds"
-                         + (f" <= {high:g}" if high < math.inf else "") + f", got {value!r}")
-    return v
-
-
-def _check_number(name: str, value: Any, low: float = -math.inf) -> float:
-    """``value`` as a float: a real number (not bool, not a string), finite and >= ``low``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and v >= low):
-        raise ValueError(f"{name} must be a finite number" + (f" >= {low:g}" if low > -math.inf
-                                                               else "") + f", got {value!r}")
-    return v
 
 
 class WheelCore:
     """N robots of one kind on one task (see the module docstring for the API).
 
     Args:
-        robot: robot name (``"ThreeWheel"``, ``"SkidSteer"``...).
+        robot: robot name (``"ThreeWheel"``, ``"SkidSteer"``...), or an :class:`EnvConfig`
+            (then no keywords).
         num: batch size N.
-        task, action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights:
-            as documented on :class:`~wheelgym.envs.wheel_env.WheelEnv`.
-        horizon: control steps of the track reference that batches of up to
-            ``TrackTask.whole_up_to`` robots evaluate at each reset (capped at
-            ``TrackTask.max_table``); the reference moves on past it by windows.
-        range_backend: ``"analytic"`` (compiled rays) or ``"pymunk"`` (segment queries) for
-            the navigate task's range sensor.
+        **kwargs: the :class:`~wheelgym.envs.config.EnvConfig` keywords (task, action_mode,
+            params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights, range_backend,
+            horizon: as documented on :class:`~wheelgym.envs.wheel_env.WheelEnv`; ``horizon``
+            is the control steps of the track reference that batches of up to
+            ``TrackTask.whole_up_to`` robots evaluate at each reset, capped at
+            ``TrackTask.max_table``; the reference moves on past it by windows).
+
+    ``config`` holds the validated keywords; the checks that need the built model (the
+    parameter values, RK4 stability, the ``randomize`` extremes) are made here.
     """
 
-    def __init__(
-        self,
-        robot: str,
-        num: int = 1,
-        *,
-        task: str = "goal",
-        action_mode: str | None = None,
-        params: Mapping[str, Any] | None = None,
-        ctrl_dt: float | None = None,
-        sim_dt: float | None = None,
-        randomize: Mapping[str, Any] | bool | None = None,
-        obs_noise: float = 0.0,
-        reward_weights: Mapping[str, float] | None = None,
-        horizon: int = DEFAULT_HORIZON,
-        range_backend: str = "analytic",
-    ) -> None:
-        spec: RobotSpec = get_spec(robot)
-        self.spec = spec
+    def __init__(self, robot: str | EnvConfig, num: int = 1, **kwargs: Any) -> None:
+        if isinstance(robot, EnvConfig):
+            if kwargs:
+                raise TypeError(f"WheelCore(config, num) takes no keywords, got {list(kwargs)}")
+            cfg = robot
+        else:
+            get_spec(robot)  # an unknown robot first (ValueError listing the robots)
+            cfg = None
         if isinstance(num, bool) or not isinstance(num, (int, np.integer)) or num < 1:
             raise ValueError(f"num must be a positive int, got {num!r}")
+        if cfg is None:
+            cfg = EnvConfig.from_kwargs("WheelCore", robot, kwargs)
+        #: The validated keyword arguments (:class:`~wheelgym.envs.config.EnvConfig`).
+        self.config = cfg
+        spec: RobotSpec = cfg.spec
+        self.spec = spec
         self.num = N = int(num)
-        if task not in TASKS:
-            raise ValueError(f"unknown task {task!r}; valid tasks: {list(TASKS)}")
-        self.task_name = task
-        mode = spec.action_modes[0] if action_mode is None else action_mode
-        if mode not in spec.action_modes:
-            raise ValueError(
-                f"unknown action_mode {action_mode!r} for {spec.name}; valid modes: "
-                f"{list(spec.action_modes)}"
-            )
-        self.action_mode = mode
-        self.kinematic = spec.n_motor == 0
-        if params is not None and not isinstance(params, Mapping):
-            raise TypeError(f"params must be a dict of parameter overrides, got {params!r}")
-        model_kw = {"input_mode": mode} if self.kinematic else {}
-        self.model = spec.model_cls(dict(params or {}), **model_kw)
+        self.task_name = task = cfg.task
+        self.action_mode = mode = cfg.action_mode
+        self.model = spec.make_model(cfg.params, mode)
         self.base_params = self.model.params
-        self.dt = _check_dt("ctrl_dt", self.model.default_ctrl_dt if ctrl_dt is None else ctrl_dt,
-                            MAX_CTRL_DT)
-        sdt = _check_dt("sim_dt", self.model.default_sim_dt if sim_dt is None else sim_dt)
-        if sdt > self.dt:
-            raise ValueError(f"sim_dt ({sdt}) must not exceed ctrl_dt ({self.dt})")
-        if self.dt / sdt > MAX_SUBSTEPS + 0.5:
-            raise ValueError(
-                f"ctrl_dt / sim_dt ({self.dt} / {sdt}) must be at most {MAX_SUBSTEPS} RK4 "
-                f"substeps per control step (each costs about 1 us a robot); raise sim_dt"
-            )
-        self.n_sub = n_substeps(self.dt, sdt)
+        self.dt = cfg.ctrl_dt
+        self.n_sub = cfg.n_substeps
         self.h = self.dt / self.n_sub
         self._stiff_scale: float | None = None
         self._check_stable(self.base_params, "params")
-        self.randomize = self._check_randomize(randomize)
-        self.obs_noise = _check_number("obs_noise", obs_noise, 0.0)
-        if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
-            raise ValueError(f"horizon must be a positive int, got {horizon!r}")
-        self.horizon = int(horizon)
-        if reward_weights is not None and not isinstance(reward_weights, Mapping):
-            raise TypeError(f"reward_weights must be a dict, got {reward_weights!r}")
+        self.randomize = self._check_randomize(cfg.randomize)
+        self.obs_noise = cfg.obs_noise
+        self.horizon = cfg.horizon
 
         # action sizes and the velocity mode's controller
-        if self.kinematic:
-            self.action_dim = self.model.input_dim
-        elif mode == "velocity":
-            self.action_dim = spec.twist_dim
+        self.action_dim = spec.action_dim(mode)
+        self._velocity = spec.tracks_twist(mode)
+        if self._velocity:
             self.twist_max = np.array(spec.twist_max)
             from wheelgym.control.controllers import TwistController
 
             # deadbeat twist loop at this control period (controllers.py module docstring)
             self.controller = TwistController(self.model, ctrl_dt=self.dt)
             self._bind_controller()
-        else:
-            self.action_dim = spec.n_motor
         m = self.model.input_dim
         nx = self.model.state_dim
         nf = len(spec.feat_names)
@@ -192,8 +164,7 @@ class WheelCore:
         self.Xo = np.zeros((N, nx))
         p0 = self.model.packed
         self.P = np.tile(p0, (N, 1))
-        lo, hi = spec.input_bounds(self.base_params, mode) if not self.kinematic else \
-            self.model.input_bounds()
+        lo, hi = spec.action_bounds(self.model, mode)
         # physical input bounds per row: low then high (LO, HI are views)
         self.m = m
         self.LH = np.tile(np.concatenate([lo, hi]), (N, 1))
@@ -212,10 +183,7 @@ class WheelCore:
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
-        kw = {"range_backend": range_backend} if task == "navigate" else {}
-        if task != "navigate" and range_backend != "analytic":
-            raise ValueError("range_backend applies to task='navigate' only")
-        self.task: Task = TASKS[task](self, reward_weights, **kw)
+        self.task: Task = TASKS[task](self, cfg.reward_weights, **cfg.task_kwargs())
         self.obs_names, high = self.task.obs_layout()
         self.obs_high = high.astype(np.float32)
         self.obs_low = (self.task.obs_low() if isinstance(self.task, NavigateTask)
@@ -224,14 +192,13 @@ class WheelCore:
         self.obs = np.zeros((N, D), dtype=np.float32)
         self.rngs: Sequence[np.random.Generator] | None = None
         self._track = isinstance(self.task, TrackTask)
-        self._velocity = self.action_mode == "velocity" and not self.kinematic
 
     # ------------------------------------------------------------------ views and copies
     #: Attributes that are views into the blocks ``LH``, ``B`` and ``F`` (or hold such views,
     #: or compiled callables): a copy drops them and rebuilds them on its own blocks.
     _DERIVED = ("LO", "HI", "U", "jv", "energy", "eff", "pose", "twist", "xf", "reward", "err",
-                "feat", "sat", "ok", "term", "succ", "coll", "info_buffers", "_k_step",
-                "_ctl_kernel", "_ctl_args")
+                "feat", "sat", "ok", "term", "succ", "coll", "info_buffers", "info_vectors",
+                "info_numbers", "info_flags", "_k_step", "_ctl_kernel", "_ctl_args")
 
     def _bind_views(self) -> None:
         """The named views into the blocks (one compiled call writes a whole row)."""
@@ -259,6 +226,32 @@ class WheelCore:
             "internal_force": self.xf, "saturated": self.sat, "is_success": self.succ,
             "ok": self.ok, "terms": self.terms,
         }
+        # INFO_KEYS as views of the blocks: vectors (N, k), numbers (N,), flags (N,) + negate
+        floats, flags = self.info_columns()
+        self.info_vectors = tuple((n, self.B[:, col]) for n, col in floats
+                                  if isinstance(col, slice))
+        self.info_numbers = tuple((n, self.B[:, col]) for n, col in floats
+                                  if not isinstance(col, slice))
+        self.info_flags = tuple((n, self.F[:, col], neg) for n, col, neg in flags)
+
+    def info_columns(self) -> tuple[tuple[tuple[str, slice | int], ...],
+                                    tuple[tuple[str, int, bool], ...]]:
+        """:data:`INFO_KEYS` resolved on this core: the float keys as ``(name, column of B)``
+        (a slice for a vector, an index for a number) and the flag keys as ``(name, column of
+        F, negate)``, each in table order (the reward terms are ``terms``' columns
+        ``task.term_index``)."""
+        floats: list[tuple[str, slice | int]] = []
+        flags: list[tuple[str, int, bool]] = []
+        nm = self.spec.n_motor
+        for key in INFO_KEYS:
+            if key.block == "B":
+                col = self._lay[key.column]
+                if key.motors:
+                    col = slice(col.start, col.start + nm)
+                floats.append((key.name, col))
+            elif key.block == "F":
+                flags.append((key.name, int(key.column), key.negate))
+        return tuple(floats), tuple(flags)
 
     def __getstate__(self) -> dict[str, Any]:
         """State for ``copy.deepcopy`` and ``pickle``: the blocks and buffers, without the
@@ -292,47 +285,14 @@ class WheelCore:
         self._clipped = np.zeros(N, dtype=np.bool_)
 
     # ------------------------------------------------------------------ validation
-    def _check_randomize(self, randomize) -> dict[str, tuple[float, float]]:
-        spec = self.spec
-        if randomize is None or randomize is False:
-            return {}
-        if randomize is True:
-            out = dict(spec.default_randomize)
-            if not out:  # nothing to draw: say so rather than silently randomise nothing
-                raise ValueError(
-                    f"randomize=True: {spec.name} has no parameters to randomise (its model has "
-                    f"no randomize groups); pass randomize=None")
-            if self.kinematic:  # a range that cannot change the motion is refused
-                self.model.check_randomize(out)
-            self._check_randomize_extremes(out)  # the defaults on the given params
-            return out
-        if not isinstance(randomize, Mapping):
-            raise TypeError(f"randomize must be a dict, True or None, got {randomize!r}")
-        out = {}
-        for k, v in randomize.items():
-            if k not in spec.randomize:
-                raise ValueError(
-                    f"unknown randomize key {k!r} for {spec.name}; valid keys: "
-                    f"{list(spec.randomize)} (all groups: {list(RANDOMIZE_GROUPS)})"
-                )
-            kinds = {kind for _, kind in spec.randomize[k]}
-            if np.ndim(v) == 0:
-                v = float(v)
-                if "abs" in kinds:
-                    raise ValueError(f"randomize[{k!r}] needs an absolute (low, high) range")
-                if not (math.isfinite(v) and 0 <= v < 1):
-                    raise ValueError(f"randomize[{k!r}] as a fraction must be in [0, 1), got {v}")
-                v = (1.0 - v, 1.0 + v)
-            lo, hi = (float(a) for a in v)
-            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-                raise ValueError(f"randomize[{k!r}] must be a finite (low, high), got {v!r}")
-            if "rel" in kinds and lo <= 0:
-                raise ValueError(f"randomize[{k!r}] relative factors must be > 0, got {v!r}")
-            out[k] = (lo, hi)
-        if out and self.kinematic:  # a range that cannot change the motion is refused
-            self.model.check_randomize(out)
-        self._check_randomize_extremes(out)
-        return out
+    def _check_randomize(self, ranges: dict[str, tuple[float, float]]
+                         ) -> dict[str, tuple[float, float]]:
+        """The config's ``randomize`` ranges, checked on the model: a range that cannot change
+        the motion (:meth:`RobotSpec.check_randomize`) or that can draw invalid or unstable
+        parameters (:meth:`_check_randomize_extremes`) raises ``ValueError``."""
+        self.spec.check_randomize(self.model, ranges)
+        self._check_randomize_extremes(ranges)
+        return dict(ranges)
 
     def _params_at(self, values: Mapping[str, float]) -> Any:
         """The base parameters with each group in ``values`` at that draw (a factor, or the
@@ -362,32 +322,32 @@ class WheelCore:
             at = ", ".join(f"{g} at {v:g}" for g, v in corner.items())
             try:
                 params = self._params_at(corner)
-                if self.kinematic:
-                    self.spec.model_cls(params, input_mode=self.action_mode)
-                else:
-                    self._check_stable(params, "params", coarse=True)
+                self._check_stable(params, "params", coarse=True,
+                                   model=self.spec.make_model(params, self.action_mode))
             except (ValueError, TypeError) as exc:
                 raise ValueError(
                     f"{names}{' together' if len(corner) > 1 else ''} can draw invalid "
                     f"parameters ({at}): {exc}; narrow the range"
                 ) from None
 
-    def _check_stable(self, params: Any, what: str, coarse: bool = False) -> None:
+    def _check_stable(self, params: Any, what: str, coarse: bool = False,
+                      model: Any = None) -> None:
         """``ValueError`` when the RK4 substep ``h`` is outside RK4's stability region for
         ``params``: ``lambda h >= 2.785`` (:data:`RK4_REAL_STABILITY_LIMIT`) for the stiffest
         mode, the friction at rest (the model's ``stiffness()``, README "Time steps") or, for
         a caster trail ``d``, the trailing-caster mode ``|v| / d`` (``ThreeWheel``'s
-        docstring) at the speed limit ``v_max``. ``coarse``: fewer steering angles (for the
-        randomisation corners)."""
-        if self.kinematic:
+        docstring) at the speed limit ``v_max``. ``coarse``: at the spec's
+        ``stiffness_probe`` configurations (for the randomisation corners). ``model``: the
+        model of ``params`` if already built. Models without ``stiffness`` (kinematic) pass."""
+        if not hasattr(self.spec.model_cls, "stiffness"):
             return
-        model = self.model if params is self.base_params else self.spec.model_cls(params)
-        if not hasattr(model, "stiffness"):
-            return
-        if coarse and self.spec.name == "ThreeWheel":  # 8 steering configurations (~40x
-            g = (0.0, 0.5 * np.pi)                      # cheaper than the full grid), scaled by
-            psi = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)  # full/coarse
-            if self._stiff_scale is None:                                           # at base
+        if model is None:
+            model = self.model if params is self.base_params else \
+                self.spec.make_model(params, self.action_mode)
+        probe = self.spec.stiffness_probe
+        if coarse and probe is not None:  # fewer configurations, scaled by full/coarse at base
+            psi = np.asarray(probe)
+            if self._stiff_scale is None:
                 self._stiff_scale = self.model.stiffness() / self.model.stiffness(psi)
             lam = model.stiffness(psi) * self._stiff_scale
         else:
@@ -423,13 +383,7 @@ class WheelCore:
         params = base.replace(**changes)
         self.params_rows[i] = params
         self.drawn[i] = drawn
-        if self.kinematic:
-            mdl = self.spec.model_cls(params, input_mode=self.action_mode)
-            self.P[i] = mdl.packed
-            lo, hi = self.model.action_bounds(mdl)  # the commanding side's scale
-        else:
-            self.P[i] = params.pack()
-            lo, hi = self.spec.input_bounds(params, self.action_mode)
+        self.P[i], lo, hi = self.spec.row_params(self.model, params, self.action_mode)
         self.LO[i] = lo
         self.HI[i] = hi  # views into LH
 

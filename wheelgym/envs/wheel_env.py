@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
+from wheelgym.envs.config import EnvConfig, signature_with
+from wheelgym.envs.core import WheelCore
 
 __all__ = ["WheelEnv"]
 
@@ -94,7 +94,7 @@ Terminated on success (goal: within 0.1 m and 0.2 rad; navigate: within 0.25 m),
 (the models have no motor back-EMF, so speed is capped by this sanity limit), lost (track),
 collision (navigate), or a diverged integration (``info["numerical_failure"] = True``: the
 state turned non-finite or a twist entry exceeded 1e3 m/s or rad/s,
-``robots._body.SPEED_BOUND``; the state, the observation and the reward then stay at the last
+``robots.body.SPEED_BOUND``; the state, the observation and the reward then stay at the last
 good state's, with the overspeed penalty). Truncated after ``max_episode_steps`` = 500
 control steps (25 s at the default ``ctrl_dt``). The track reference never runs out: it is
 evaluated in windows as the episode goes on (any ``max_episode_steps``, ``None`` included); the
@@ -107,6 +107,9 @@ terminal bonus or penalty is paid twice. The vector env resets a terminated sub-
 step instead (``NEXT_STEP`` autoreset), so it never pays one twice either.
 
 ## Arguments
+
+Keyword arguments only; they are the fields of ``wheelgym.envs.config.EnvConfig``, validated
+there once (the vector env takes the same).
 
 | argument       | default           | meaning                                                 |
 |----------------|-------------------|---------------------------------------------------------|
@@ -179,33 +182,17 @@ class WheelEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 20}
     robot: str = ""
 
-    def __init__(
-        self,
-        task: str = "goal",
-        action_mode: str | None = None,
-        params: Mapping[str, Any] | None = None,
-        ctrl_dt: float | None = None,
-        sim_dt: float | None = None,
-        randomize: Mapping[str, Any] | bool | None = None,
-        obs_noise: float = 0.0,
-        reward_weights: Mapping[str, float] | None = None,
-        render_mode: str | None = None,
-        range_backend: str = "analytic",
-        horizon: int = DEFAULT_HORIZON,
-    ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
-        self.core = WheelCore(
-            self.robot, 1, task=task, action_mode=action_mode, params=params, ctrl_dt=ctrl_dt,
-            sim_dt=sim_dt, randomize=randomize, obs_noise=obs_noise,
-            reward_weights=reward_weights, horizon=horizon, range_backend=range_backend,
-        )
+    def __init__(self, **kwargs: Any) -> None:
+        """Keywords: the "Arguments" table (:class:`~wheelgym.envs.config.EnvConfig`'s
+        fields), validated once by the config and passed down to the core."""
+        config = EnvConfig.from_kwargs(type(self).__name__, self.robot, kwargs,
+                                       tuple(self.metadata["render_modes"]))
+        #: The validated keyword arguments.
+        self.config = config
+        self.core = WheelCore(config, 1)
         c = self.core
-        self.render_mode = render_mode
-        self.task = task
+        self.render_mode = config.render_mode
+        self.task = config.task
         self.action_mode = c.action_mode
         self.dt = c.dt
         self.action_space = spaces.Box(-1.0, 1.0, (c.action_dim,), np.float32)
@@ -213,7 +200,6 @@ class WheelEnv(gym.Env):
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / c.dt))}
         self._names = c.task.names
         self._tidx = [int(k) for k in c.task.term_index]
-        self._nmotor = c.spec.n_motor
         self._A = np.zeros((1, c.action_dim))
         self._shape = (c.action_dim,)
         self._renderer = None
@@ -276,23 +262,21 @@ class WheelEnv(gym.Env):
         return obs[0].copy(), r, t, False, info
 
     def _info(self, at_reset: bool) -> dict[str, Any]:
+        """The step info (``core.INFO_KEYS``, through the core's views of its blocks): vectors
+        as copies, numbers and flags as Python floats and bools, the reward terms as a dict
+        (zeros at a reset)."""
         c = self.core
-        nm = self._nmotor
+        info: dict[str, Any] = {}
+        for n, v in c.info_vectors:
+            info[n] = v[0].copy()
+        for n, v in c.info_numbers:
+            info[n] = v.item(0)
+        for n, v, neg in c.info_flags:
+            info[n] = v.item(0) != neg
         t = c.terms[0].tolist()
-        return {
-            "pose": c.pose[0].copy(),
-            "twist": c.twist[0].copy(),
-            "motor_torque": c.U[0, :nm].copy(),
-            "joint_velocity": c.jv[0, :nm].copy(),
-            "tracking_error": c.err.item(0),
-            "energy": c.energy.item(0),
-            "internal_force": c.xf.item(0),
-            "saturated": c.sat.item(0),
-            "is_success": c.succ.item(0),
-            "numerical_failure": not c.ok.item(0),
-            "reward_terms": {n: (0.0 if at_reset else t[k])
-                             for n, k in zip(self._names, self._tidx, strict=True)},
-        }
+        info["reward_terms"] = {n: (0.0 if at_reset else t[k])
+                                for n, k in zip(self._names, self._tidx, strict=True)}
+        return info
 
     def _task_info(self) -> dict[str, Any]:
         c = self.core
@@ -325,3 +309,6 @@ class WheelEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+WheelEnv.__init__.__signature__ = signature_with()  # type: ignore[attr-defined]

@@ -46,14 +46,11 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, Segment, reeds_shepp_path, sample
+from wheelgym.models.elementwise import wrap_angle
 
 __all__ = ["CarLimits", "CarCommand", "CarTracker", "rear_wheel_steering"]
 
 _MODES = ("VehicleSpeedSteeringAngle", "VehicleSpeedHeadingRate", "VehicleSpeedSteeringRate")
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def rear_wheel_steering(e: float, theta_e: float, kappa_ref: float, direction: int,
@@ -277,7 +274,7 @@ class CarTracker:
         g = self.goal
         assert g is not None
         return (math.hypot(x[0] - g[0], x[1] - g[1]) <= self.tol_pos
-                and abs(_wrap(x[2] - g[2])) <= self.tol_yaw)
+                and abs(wrap_angle(x[2] - g[2])) <= self.tol_yaw)
 
     def _out(self, v: float, delta: float, psi: float, dt: float, done: bool) -> CarCommand:
         lim = self.limits
@@ -304,7 +301,7 @@ class CarTracker:
         sign = run.direction
         along = sign * (c * dx + s * dy)  # ahead of the sample in the driving direction
         e = -s * dx + c * dy  # lateral offset, left of the path's tangent
-        th = _wrap(x[2] - yr)  # heading error (the same for the virtual car facing yaw + pi)
+        th = wrap_angle(x[2] - yr)  # heading error (the same for the virtual car facing yaw + pi)
         remaining = float(run.s[-1] - run.s[i]) - along
         if remaining <= 1e-3 or (i == n - 1 and along >= 0.0):
             self._run += 1

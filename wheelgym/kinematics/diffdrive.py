@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from wheelgym.models.diffdrive import body_velocity, wheel_speeds
+from wheelgym.models.elementwise import wrap_angle
 
 __all__ = ["wheel_speeds", "body_velocity", "Motion", "rtr", "plan_rtr", "wrap_angle"]
 
@@ -26,12 +27,6 @@ def _positive(name: str, value: float) -> float:
     if not (math.isfinite(value) and value > 0):
         raise ValueError(f"{name} must be a positive finite number, got {value!r}")
     return value
-
-
-def wrap_angle(a: Any) -> Any:
-    """Wrap angles to (-pi, pi]."""
-    out = np.pi - np.mod(np.pi - np.asarray(a, dtype=np.float64), 2.0 * np.pi)
-    return float(out) if np.ndim(out) == 0 else out
 
 
 class Motion(NamedTuple):

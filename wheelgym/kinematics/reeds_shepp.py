@@ -53,6 +53,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from wheelgym.models.elementwise import wrap_angle
+
 __all__ = [
     "Segment",
     "ReedsSheppPath",
@@ -75,11 +77,8 @@ _Raw = tuple[str, tuple[float, ...]]
 
 
 def _wrap(a: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    a = math.fmod(a + _PI, _TWO_PI)
-    if a <= 0.0:
-        a += _TWO_PI
-    return a - _PI
+    """``a`` wrapped to (-pi, pi] (``elementwise.wrap_angle``) as a Python float."""
+    return float(wrap_angle(a))
 
 
 def _polar(x: float, y: float) -> tuple[float, float]:

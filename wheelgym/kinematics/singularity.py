@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from wheelgym.models.elementwise import wrap_angle
+
 __all__ = ["SingularConfigurationError", "SingularityAnalysis", "SingularScan"]
 
 
@@ -312,5 +314,5 @@ class SingularityAnalysis:
         # of the two ends of each final bracket, keep the one with the smaller |det|
         f_hi = self.det(hi)
         out = np.where((np.abs(f_lo) <= np.abs(f_hi))[:, None], lo, hi)
-        out[:, axis] = np.pi - np.mod(np.pi - out[:, axis], 2.0 * np.pi)  # wrap to (-pi, pi]
+        out[:, axis] = wrap_angle(out[:, axis])
         return out

@@ -30,12 +30,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import vectorize
+from numba import njit, vectorize
 
 from wheelgym.integrators import fma
 from wheelgym.models.friction import atan, sincos
 
-__all__ = ["sin", "cos", "arctan", "arctan2", "hypot"]
+__all__ = ["sin", "cos", "arctan", "arctan2", "hypot", "wrap", "wrap_angle"]
+
+_TWO_PI = 2.0 * math.pi
 
 #: Beyond this |x| (rad) sin and cos call libm (the compiled reduction is exact below 2e8).
 _REDUCE_MAX = 1e8
@@ -94,6 +96,23 @@ def _arctan2(y, x):  # pragma: no cover - compiled
     return r - math.pi if neg_y else r + math.pi
 
 
+@njit(cache=True, inline="always")
+def wrap(a):  # pragma: no cover - compiled
+    """Angle ``a`` (rad) wrapped to ``(-pi, pi]``, the package's one convention (compiled).
+
+    ``a`` itself (exact) when already there, else ``a - 2 pi ceil((a - pi) / (2 pi))``.
+    """
+    if -math.pi < a <= math.pi:
+        return a
+    return a - _TWO_PI * np.ceil((a - math.pi) / _TWO_PI)
+
+
+@vectorize(["float64(float64)"], cache=True)
+def _wrap_angle(a):  # pragma: no cover - compiled
+    """:func:`wrap` element-wise."""
+    return wrap(a)
+
+
 @vectorize(["float64(float64, float64)"], cache=True)
 def _hypot(x, y):  # pragma: no cover - compiled
     """``sqrt(x^2 + y^2)`` (see the module table)."""
@@ -107,3 +126,5 @@ cos: np.ufunc = _cos.ufunc
 arctan: np.ufunc = _arctan.ufunc
 arctan2: np.ufunc = _arctan2.ufunc
 hypot: np.ufunc = _hypot.ufunc
+#: Angles wrapped to ``(-pi, pi]`` (:func:`wrap` element-wise), for NumPy and scalar code.
+wrap_angle: np.ufunc = _wrap_angle.ufunc

@@ -2,7 +2,7 @@
 
 A task works on a whole batch of robots (rows), seen through a
 :class:`~wheelgym.tasks.view.BatchView` (the environments' core implements it), with one
-compiled kernel per step (``wheelgym.tasks._kernels``); ``reset_rows`` draws row i's episode only
+compiled kernel per step (``wheelgym.tasks.kernels``); ``reset_rows`` draws row i's episode only
 from ``rngs[i]``.
 """
 
@@ -22,7 +22,7 @@ from wheelgym.kinematics.references import (
     Reference,
     evaluate_batch,
 )
-from wheelgym.tasks._kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
+from wheelgym.tasks.kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
 from wheelgym.tasks.view import BatchView, RobotConstants
 
 __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]

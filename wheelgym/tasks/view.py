@@ -8,7 +8,7 @@ own attributes, so the tasks' compiled calls read the core's arrays directly, wi
 copy on the step path, and the tasks import nothing of ``wheelgym.envs``.
 
 Block layout (``B``: one float row per robot; ``F``: one flag row) is the envs' step kernel's;
-the task kernels (:mod:`wheelgym.tasks._kernels`) read it given ``m``, the model's input size.
+the task kernels (:mod:`wheelgym.tasks.kernels`) read it given ``m``, the model's input size.
 """
 
 from __future__ import annotations

@@ -43,8 +43,9 @@ plus ``num_envs``, ``max_episode_steps``, ``autoreset_mode`` and ``render_envs``
 
 from __future__ import annotations
 
+import inspect
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -53,8 +54,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
-from wheelgym.envs.robots._body import F_OK, F_SAT, F_SUCC
 from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
@@ -95,13 +96,14 @@ class WheelVectorEnv(VectorEnv):
 
     Args:
         num_envs: number of sub-environments N.
-        task, action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights,
-            range_backend, horizon: as :class:`~wheelgym.envs.WheelEnv` (shared by all N).
         max_episode_steps: per-sub-env time limit in control steps, or ``None``.
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` (or its value string).
-        render_mode: ``None`` or ``"rgb_array"``.
         render_envs: how many sub-envs (the first ones) ``render()`` draws, tiled in a grid.
         robot: robot name; set by the per-robot subclasses (``ThreeWheelVectorEnv``...).
+        **kwargs: the single env's keywords (:class:`~wheelgym.envs.config.EnvConfig`: task,
+            action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights,
+            range_backend, horizon; shared by all N) and ``render_mode`` (``None`` or
+            ``"rgb_array"``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {
@@ -114,21 +116,12 @@ class WheelVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
-        task: str = "goal",
-        action_mode: str | None = None,
-        params: Mapping[str, Any] | None = None,
-        ctrl_dt: float | None = None,
-        sim_dt: float | None = None,
-        randomize: Mapping[str, Any] | bool | None = None,
-        obs_noise: float = 0.0,
-        reward_weights: Mapping[str, float] | None = None,
-        render_mode: str | None = None,
-        range_backend: str = "analytic",
-        horizon: int = DEFAULT_HORIZON,
+        *,
         max_episode_steps: int | None = DEFAULT_HORIZON,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         render_envs: int = 1,
         robot: str | None = None,
+        **kwargs: Any,
     ) -> None:
         robot = self.robot if robot is None else robot
         if not robot:
@@ -142,26 +135,23 @@ class WheelVectorEnv(VectorEnv):
                 or not isinstance(max_episode_steps, (int, np.integer)) or max_episode_steps < 1):
             raise ValueError(f"max_episode_steps must be None or a positive int, "
                              f"got {max_episode_steps!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or one of "
-                             f"{self.metadata['render_modes']}, got {render_mode!r}")
+        config = EnvConfig.from_kwargs(type(self).__name__, robot, kwargs,
+                                       tuple(self.metadata["render_modes"]))
         if isinstance(render_envs, bool) or not isinstance(render_envs, (int, np.integer)) \
                 or not 1 <= render_envs <= num_envs:
             raise ValueError(f"render_envs must be an int in [1, num_envs={num_envs}], "
                              f"got {render_envs!r}")
         mode = _autoreset_mode(autoreset_mode)
-        self.core = c = WheelCore(
-            robot, int(num_envs), task=task, action_mode=action_mode, params=params,
-            ctrl_dt=ctrl_dt, sim_dt=sim_dt, randomize=randomize, obs_noise=obs_noise,
-            reward_weights=reward_weights, horizon=horizon, range_backend=range_backend,
-        )
+        #: The validated keyword arguments shared by the N sub-envs.
+        self.config = config
+        self.core = c = WheelCore(config, int(num_envs))
         self.num_envs = N = int(num_envs)
-        self.task = task
+        self.task = config.task
         self.action_mode = c.action_mode
         self.dt = c.dt
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.autoreset_mode = mode
-        self.render_mode = render_mode
+        self.render_mode = config.render_mode
         self.render_envs = int(render_envs)
         self.metadata = {**self.metadata, "autoreset_mode": mode,
                          "render_fps": int(round(1.0 / c.dt))}
@@ -173,13 +163,16 @@ class WheelVectorEnv(VectorEnv):
 
         self._names = c.task.names
         self._tidx = np.array([int(k) for k in c.task.term_index], dtype=np.int64)
-        nm = c.spec.n_motor
-        lay = c._lay
-        # where each info entry sits in the core's float block B
-        self._bslices = (("pose", lay["pose"]), ("twist", lay["twist"]),
-                         ("motor_torque", slice(0, nm)), ("joint_velocity", slice(c.m, c.m + nm)),
-                         ("tracking_error", lay["err"]), ("energy", lay["energy"]),
-                         ("internal_force", lay["xf"]))
+        # the INFO_KEYS table on this core: the float entries' columns of the core's block B,
+        # the flags' columns of F (and which are reported negated)
+        self._bslices, flags = c.info_columns()
+        # k_info_copy copies the flags as (F[a], F[b], not F[c])
+        if tuple(neg for _, _, neg in flags) != (False, False, True):
+            raise AssertionError("INFO_KEYS' flags must be two plain flags then a negated one "
+                                 "(vector/_kernels.k_info_copy)")
+        self._fnames = tuple(n for n, _, _ in flags)
+        self._fcols = tuple(col for _, col, _ in flags)
+        self._nkeys = len(self._bslices) + len(flags) + 1  # + reward_terms
         self._has_goal = hasattr(c.task, "goal")
         self._has_kind = hasattr(c.task, "kind")
         self._rngs: list[np.random.Generator | None] = [None] * N
@@ -365,32 +358,34 @@ class WheelVectorEnv(VectorEnv):
         c = self.core
         N = self.num_envs
         nt = self._tidx.size
+        nk = self._nkeys
         Bo = np.empty_like(c.B)
         Fo = np.empty((3, N), dtype=np.bool_)
         tv = np.empty((nt, N))
         k_info_copy(c.B, c.F, c.terms, self._tidx, self._no_rows if reset is None else reset,
-                    F_SAT, F_SUCC, F_OK, Bo, Fo, tv)
+                    *self._fcols, Bo, Fo, tv)
         if rows is None:
-            masks = np.ones((11 + nt, N), dtype=np.bool_)
+            masks = np.ones((nk + nt, N), dtype=np.bool_)
         else:
-            masks = np.empty((11 + nt, N), dtype=np.bool_)
+            masks = np.empty((nk + nt, N), dtype=np.bool_)
             masks[:] = rows
+        # one mask row per key (INFO_KEYS order), then one per reward term
         info: dict[str, Any] = {}
-        for j, (k, sl) in enumerate(self._bslices):
+        j = 0
+        for k, sl in self._bslices:
             info[k] = Bo[:, sl]
             info["_" + k] = masks[j]
-        info["saturated"] = Fo[0]
-        info["_saturated"] = masks[7]
-        info["is_success"] = Fo[1]
-        info["_is_success"] = masks[8]
-        info["numerical_failure"] = Fo[2]
-        info["_numerical_failure"] = masks[9]
+            j += 1
+        for f, k in enumerate(self._fnames):
+            info[k] = Fo[f]
+            info["_" + k] = masks[j]
+            j += 1
         terms: dict[str, Any] = {}
-        for j, n in enumerate(self._names):
-            terms[n] = tv[j]
-            terms["_" + n] = masks[11 + j]
+        for q, n in enumerate(self._names):
+            terms[n] = tv[q]
+            terms["_" + n] = masks[nk + q]
         info["reward_terms"] = terms
-        info["_reward_terms"] = masks[10]
+        info["_reward_terms"] = masks[j]
         if reset is not None and reset.size:
             info.update(self._reset_info(reset))
         return info
@@ -513,3 +508,10 @@ class AckermannVectorEnv(WheelVectorEnv):
     """Batched :class:`~wheelgym.envs.AckermannEnv`."""
 
     robot = "Ackermann"
+
+
+WheelVectorEnv.__init__.__signature__ = signature_with(  # type: ignore[attr-defined]
+    inspect.Parameter("num_envs", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=1,
+                      annotation="int"),
+    *(p for n, p in inspect.signature(WheelVectorEnv.__init__).parameters.items()
+      if p.kind is inspect.Parameter.KEYWORD_ONLY))

@@ -26,10 +26,10 @@ class RobotSpec:
         name: robot name used in ids (``"SkidSteer"``...).
         model_cls: the :class:`~wheelgym.models.Model` subclass.
         k_env_step: compiled ``k_env_step(X, A, LH, P, h, n, Xo, B, F) -> bool`` (see
-            ``_body.env_step_body``; ThreeWheel and SkidSteer step ``LANES`` rows or more in
-            vectorised blocks, ``_body.env_step_blocks``, with the same bits per row).
+            ``body.env_step_body``; ThreeWheel and SkidSteer step ``LANES`` rows or more in
+            vectorised blocks, ``body.env_step_blocks``, with the same bits per row).
         k_env_step_par: the same kernel with the rows (or blocks) spread over numba's
-            threads (``parallel=True``; same bits per row), used from ``_body.PAR_MIN_ROWS``
+            threads (``parallel=True``; same bits per row), used from ``body.PAR_MIN_ROWS``
             rows.
         input_bounds: ``input_bounds(params, mode) -> (lo, hi)`` physical bounds of the
             action in that action mode (torques N·m, or the kinematic inputs).
@@ -48,6 +48,23 @@ class RobotSpec:
         wheels: ``wheels(x, params) -> (k, 3)`` wheel centres (m, in B) and angles (rad, in B).
         motor_names: names of the motors in input order (``n_motor`` of them; empty for
             kinematic robots), for plots and tables.
+        twist_modes: action modes whose action is a body twist (``twist_dim`` entries scaled
+            by ``twist_max``) tracked by :class:`wheelgym.control.TwistController`
+            (``("velocity",)`` for the dynamic robots; none for the kinematic ones, whose
+            modes are their model's input modes).
+        holonomic: the robot can move sideways: the analytic baseline commands ``(vx, vy,
+            wz)`` of the centre of mass directly (else it steers the ``x_icr`` point).
+        turns_in_place: the robot can turn without moving (False for car-like robots: the
+            baseline plans a Reeds-Shepp path on ``goal``).
+        baseline_controllers: the analytic baseline drives the torque mode through
+            ``wheelgym.control``'s TwistController and TrackingController (else through a
+            proportional twist loop on the wheel torques, or the kinematic inputs).
+        n_steer_motor: the last ``n_steer_motor`` motors steer wheels 0, 1, ...; the others
+            drive wheels 0, 1, ... (the renderer's torque arrows).
+        stiffness_probe: configurations (the model's ``stiffness`` argument, e.g. steering
+            angles) at which the ``randomize`` extremes' RK4 stiffness is evaluated, scaled by
+            full/probe at the nominal parameters (cheaper than the full grid); None: the
+            model's ``stiffness()`` itself.
     """
 
     name: str
@@ -71,14 +88,69 @@ class RobotSpec:
     geometry: Callable[[Params], dict]
     wheels: Callable[[np.ndarray, Params], np.ndarray]
     motor_names: tuple[str, ...] = ()
+    twist_modes: tuple[str, ...] = ("velocity",)
+    holonomic: bool = False
+    turns_in_place: bool = True
+    baseline_controllers: bool = False
+    n_steer_motor: int = 0
+    stiffness_probe: tuple[tuple[float, ...], ...] | None = None
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def kinematic(self) -> bool:
+        """No motors: the action is the model's velocity input in the chosen input mode (no
+        torque, no energy, no RK4 stiffness)."""
+        return self.n_motor == 0
+
+    def make_model(self, params: Mapping[str, Any] | Params | None, mode: str) -> Model:
+        """The model with ``params`` (overrides or a Params instance) for action ``mode``
+        (the kinematic models take the mode as their input mode)."""
+        if self.kinematic:
+            return self.model_cls(params, input_mode=mode)
+        return self.model_cls(params)
+
+    def action_dim(self, mode: str) -> int:
+        """Size of the normalised action in ``mode``."""
+        if self.kinematic:
+            return len(self.model_cls.input_modes[mode])
+        return self.twist_dim if self.tracks_twist(mode) else self.n_motor
+
+    def tracks_twist(self, mode: str) -> bool:
+        """Whether ``mode``'s action is a twist tracked by the TwistController."""
+        return mode in self.twist_modes
+
+    def action_bounds(self, model: Model, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """Physical ``(lo, hi)`` of the model's input that the action in ``mode`` scales onto,
+        at the nominal model ``model``."""
+        if self.kinematic:
+            return model.input_bounds()
+        return self.input_bounds(model.params, mode)
+
+    def row_params(self, nominal: Model, params: Params, mode: str
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A row drawn with ``params``: its packed parameter array and ``(lo, hi)`` action
+        bounds (the kinematic models scale onto the nominal model's ``action_bounds`` of the
+        drawn one)."""
+        if self.kinematic:
+            mdl = self.make_model(params, mode)
+            lo, hi = nominal.action_bounds(mdl)  # the commanding side's scale
+            return mdl.packed, lo, hi
+        lo, hi = self.input_bounds(params, mode)
+        return params.pack(), lo, hi
+
+    def check_randomize(self, model: Model, ranges: Mapping[str, tuple[float, float]]) -> None:
+        """``ValueError`` for ranges that cannot change the motion (the kinematic models'
+        ``check_randomize``; nothing for the others)."""
+        if ranges and self.kinematic:
+            model.check_randomize(dict(ranges))
 
 
 def guard_cache(module_file: str, *deps: str) -> None:
     """Drop a robot module's numba cache when a file its kernels inline has changed.
 
-    The robot kernels inline the model's derivative and ``_body.env_step_body`` from other
+    The robot kernels inline the model's derivative and ``body.env_step_body`` from other
     files (and link the models' compiled block kernels, which inline ``integrators.py``);
-    see :mod:`wheelgym._numba_cache`. ``_body.py`` and ``integrators.py`` are always
+    see :mod:`wheelgym._numba_cache`. ``body.py`` and ``integrators.py`` are always
     dependencies.
     """
     import os
@@ -86,6 +158,6 @@ def guard_cache(module_file: str, *deps: str) -> None:
     from wheelgym import _numba_cache
     from wheelgym import integrators as _integrators
 
-    body = os.path.join(os.path.dirname(os.path.abspath(module_file)), "_body.py")
+    body = os.path.join(os.path.dirname(os.path.abspath(module_file)), "body.py")
     _numba_cache.guard(module_file, body, _integrators.__file__, *deps)
 

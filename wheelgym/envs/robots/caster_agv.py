@@ -9,8 +9,8 @@ from numba import njit
 
 import wheelgym.models.friction as _friction
 import wheelgym.models.kernels.caster_agv as _kern
-from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
+from wheelgym.envs.robots.body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.models import CasterAGV, CasterAGVParams
 from wheelgym.models.kernels.caster_agv import P_C, P_R, deriv_one
 

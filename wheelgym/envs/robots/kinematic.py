@@ -13,8 +13,8 @@ import numpy as np
 from numba import njit
 
 import wheelgym.models.kernels.kinematic as _kern
-from wheelgym.envs.robots._body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
+from wheelgym.envs.robots.body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.models import Ackermann, Bicycle, DifferentialDrive, Unicycle
 from wheelgym.models.kernels.kinematic import deriv_one, effective
 
@@ -104,7 +104,8 @@ def _wheels_ack(x, p):
                      [p.wheelbase, -t, psi]])
 
 
-def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None) -> RobotSpec:
+def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None,
+          turns_in_place=True) -> RobotSpec:
     return RobotSpec(
         name=name, model_cls=cls, k_env_step=k_env_step,
         k_env_step_par=k_env_step_par, input_bounds=_input_bounds,
@@ -112,7 +113,7 @@ def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None) -
         v_max=10.0, w_max=20.0, feat_names=feats, feat_high=(1.0,) * len(feats), radius=0.35,
         randomize=randomize or {}, default_randomize=default or {},
         initial_state=partial(_initial_state, nx), n_motor=0, has_internal_force=False,
-        geometry=geom, wheels=wheels,
+        geometry=geom, wheels=wheels, twist_modes=(), turns_in_place=turns_in_place,
     )
 
 
@@ -122,6 +123,7 @@ UNICYCLE = _spec("Unicycle", Unicycle, 3, partial(_geometry, 0.4, 0.4, 0.1), _wh
 DIFFDRIVE = _spec("DiffDrive", DifferentialDrive, 3, partial(_geometry, 0.5, 0.5, 0.1),
                   _wheels_dd,
                   randomize=_WR, default={"wheel_radius": (0.95, 1.05)})
-BICYCLE = _spec("Bicycle", Bicycle, 3, partial(_geometry, 0.8, 0.3, 0.15), _wheels_bic)
+BICYCLE = _spec("Bicycle", Bicycle, 3, partial(_geometry, 0.8, 0.3, 0.15), _wheels_bic,
+                turns_in_place=False)
 ACKERMANN = _spec("Ackermann", Ackermann, 4, partial(_geometry, 0.8, 0.5, 0.1), _wheels_ack,
-                  feats=("cos_psi", "sin_psi"))
+                  feats=("cos_psi", "sin_psi"), turns_in_place=False)

@@ -7,13 +7,13 @@ from numba import njit
 
 import wheelgym.models.friction as _friction
 import wheelgym.models.kernels.skid_steer as _kern
-from wheelgym.envs.robots._body import (
+from wheelgym.envs.robots._spec import RobotSpec, guard_cache
+from wheelgym.envs.robots.body import (
     env_step_block,
     env_step_blocks,
     env_step_blocks_par,
     env_step_body,
 )
-from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.integrators import LANES
 from wheelgym.models import SkidSteer, SkidSteerParams
 from wheelgym.models.kernels.skid_steer import P_C, P_R, P_XICR, deriv_one, k_block, power_t
@@ -121,4 +121,5 @@ SPEC = RobotSpec(
     geometry=_geometry,
     wheels=_wheels,
     motor_names=("rear_left", "front_left", "front_right", "rear_right"),
+    baseline_controllers=True,
 )

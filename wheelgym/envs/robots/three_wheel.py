@@ -2,20 +2,20 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
+import wheelgym.control.distribution as _distribution
 import wheelgym.models.friction as _friction
 import wheelgym.models.kernels.three_wheel as _kern
-from wheelgym.envs.robots._body import (
+from wheelgym.control.distribution import internal_force_one
+from wheelgym.envs.robots._spec import RobotSpec, guard_cache
+from wheelgym.envs.robots.body import (
     env_step_block,
     env_step_blocks,
     env_step_blocks_par,
     env_step_body,
 )
-from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.integrators import LANES, fma
 from wheelgym.models import ThreeWheel, ThreeWheelParams
 from wheelgym.models.kernels.three_wheel import (
@@ -27,11 +27,10 @@ from wheelgym.models.kernels.three_wheel import (
     jacobian_rows,
     k_block,
     power_t,
-    solve3,
     trig,
 )
 
-guard_cache(__file__, _kern.__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__, _distribution.__file__)
 
 __all__ = ["SPEC"]
 
@@ -58,7 +57,7 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
         twist[k] = x[3 + k]
         feat[k] = cs[2 * k]
         feat[3 + k] = cs[2 * k + 1]
-    # internal force: the null-space part of tau, (I - J (J^T J)^-1 J^T) tau (TW-6, paper (36));
+    # internal force |(I - J (J^T J)^-1 J^T) tau| (TW-6, paper (36)), distribution's formula;
     # J's rows as tuples (no array per row), the model's jacobian_rows (TW-1): drive rows g_i / r,
     # then steer rows h_i / d - e_3
     g, h = gh(cs, 0, p)
@@ -67,27 +66,7 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
     jd2, js2 = jacobian_rows(g, h, p)
     g, h = gh(cs, 2, p)
     jd3, js3 = jacobian_rows(g, h, p)
-    J = (jd1, jd2, jd3, js1, js2, js3)
-    m00 = m01 = m02 = m11 = m12 = m22 = 0.0
-    f0 = f1 = f2 = 0.0
-    for k in range(6):
-        j = J[k]
-        m00 += j[0] * j[0]
-        m01 += j[0] * j[1]
-        m02 += j[0] * j[2]
-        m11 += j[1] * j[1]
-        m12 += j[1] * j[2]
-        m22 += j[2] * j[2]
-        f0 += j[0] * u[k]
-        f1 += j[1] * u[k]
-        f2 += j[2] * u[k]
-    y0, y1, y2 = solve3((m00, m01, m02, m11, m12, m22), f0, f1, f2)
-    s = 0.0
-    for k in range(6):
-        j = J[k]
-        e = u[k] - (j[0] * y0 + j[1] * y1 + j[2] * y2)
-        s += e * e
-    return math.sqrt(s)
+    return internal_force_one((jd1, jd2, jd3, js1, js2, js3), u, None)
 
 
 @njit(cache=True)
@@ -141,6 +120,11 @@ def _wheels(x: np.ndarray, p: ThreeWheelParams) -> np.ndarray:
     return w
 
 
+#: The 8 steering configurations psi_i in {0, pi/2} at which the randomisation corners'
+#: stiffness is evaluated (~40x cheaper than the full grid, scaled by full/coarse at base).
+_STIFFNESS_PROBE = tuple(tuple(float(a) for a in row) for row in np.stack(
+    np.meshgrid(*((0.0, 0.5 * np.pi),) * 3, indexing="ij"), -1).reshape(-1, 3))
+
 SPEC = RobotSpec(
     name="ThreeWheel",
     model_cls=ThreeWheel,
@@ -173,4 +157,8 @@ SPEC = RobotSpec(
     geometry=_geometry,
     wheels=_wheels,
     motor_names=("drive_1", "drive_2", "drive_3", "steer_1", "steer_2", "steer_3"),
+    holonomic=True,
+    baseline_controllers=True,
+    n_steer_motor=3,
+    stiffness_probe=_STIFFNESS_PROBE,
 )

@@ -49,7 +49,7 @@ def _norm2(x, y):  # pragma: no cover - compiled
     """``sqrt(x^2 + y^2)`` (poses and twists are far from overflow: no hypot needed)."""
     return math.sqrt(x * x + y * y)
 
-# Block layouts (wheelgym.envs.robots._body.layout): pose at 2m+2, twist at 2m+5, eff 2m+1,
+# Block layouts (wheelgym.envs.robots.body.layout): pose at 2m+2, twist at 2m+5, eff 2m+1,
 # xf 2m+8, reward 2m+9, err 2m+10, feat from 2m+11; flags F: 0 sat, 1 ok, 2 term, 3 succ,
 # 4 collision. cfg (goal): tol_p, tol_y, vmax, wmax, pclip, vclip, wclip;
 # cfg (track): vmax, wmax, lost, tol_p, pclip, vclip, wclip.

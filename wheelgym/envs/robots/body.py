@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from wheelgym.integrators import LANES, rk4_power
+from wheelgym.integrators import LANES, all_finite, rk4_power
 
 __all__ = ["env_step_body", "env_step_body_par", "env_step_row", "env_step_block",
            "env_step_blocks", "env_step_blocks_par", "PAR_MIN_ROWS", "SPEED_BOUND"]
@@ -46,15 +46,6 @@ def layout(m: int, nf: int) -> dict[str, slice | int]:
 
 #: Columns of the per-row flag block ``F (N, 5)``.
 F_SAT, F_OK, F_TERM, F_SUCC, F_COLL = range(5)
-
-
-@njit(cache=True, inline="always")
-def _actions_finite(A):  # pragma: no cover - compiled
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            if not np.isfinite(A[i, j]):
-                return False
-    return True
 
 
 @njit(cache=True, inline="always")
@@ -145,7 +136,7 @@ def env_step_block(block, jrate, feats, b0, X, A, LH, P, h, n, Xo, B, F,
 def env_step_blocks(block, jrate, feats, X, A, LH, P, h, n, Xo, B,
                     F):  # pragma: no cover - compiled
     """:func:`env_step_body` through :func:`env_step_block`, block after block."""
-    if not _actions_finite(A):
+    if not all_finite(A):
         return False
     W = np.empty(X.shape[0])
     for b0 in range(0, X.shape[0], LANES):
@@ -161,7 +152,7 @@ def env_step_blocks_par(rows, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover 
     around :func:`env_step_block` (the parfor passes would otherwise analyse the inlined
     model code, which numba's array analysis rejects for ThreeWheel's tuple helpers). Each
     block runs the same code, so every row's bits are the serial kernel's."""
-    if not _actions_finite(A):
+    if not all_finite(A):
         return False
     W = np.empty(X.shape[0])
     for b in prange((X.shape[0] + LANES - 1) // LANES):
@@ -200,7 +191,7 @@ def env_step_body(f, kpower, jrate, feats, X, A, LH, P, h, n, Xo, B,
     Returns:
         False when an action entry is not finite (nothing is written then).
     """
-    if not _actions_finite(A):
+    if not all_finite(A):
         return False
     work = np.empty((5, X.shape[1]))
     for i in range(X.shape[0]):
@@ -220,7 +211,7 @@ def env_step_body_par(row, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - c
     kernel's. The finiteness check of the actions stays a serial pass first (nothing is
     written when it fails).
     """
-    if not _actions_finite(A):
+    if not all_finite(A):
         return False
     for i in prange(X.shape[0]):
         work = np.empty((5, X.shape[1]))

@@ -1,0 +1,240 @@
+"""The environments' keyword arguments as one validated value: :class:`EnvConfig`.
+
+``WheelEnv(**kwargs)``, ``gym.make(id, **kwargs)``, ``gym.make_vec(id, num_envs, **kwargs)`` and
+``WheelCore(robot, num, **kwargs)`` all build one :class:`EnvConfig` from their keywords and
+pass it down; every keyword is checked here, once (a bad value raises ``ValueError`` or
+``TypeError`` naming the keyword and the valid choices or range). What needs the built model
+(parameter values, RK4 stability, the ``randomize`` extremes) is checked by
+:class:`~wheelgym.envs.core.WheelCore` on the model it builds.
+
+Adding a keyword: one field below (with its default and a line in the docstring) and one check
+in :meth:`EnvConfig.__post_init__`; the env classes take it through ``**kwargs`` (their
+signatures are built from the fields, :func:`signature_with`) and the core reads it from
+``core.config``. Document it in the "Arguments" table of ``wheel_env.py``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
+from wheelgym.integrators import n_substeps
+from wheelgym.registration import DEFAULT_HORIZON
+from wheelgym.tasks.tasks import TASKS
+
+__all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "signature_with"]
+
+#: Render modes of the single environment (the vector env offers ``rgb_array`` only).
+RENDER_MODES = ("human", "rgb_array")
+#: Longest control period (s): a controller acting less than once a second leaves the robot
+#: open loop for seconds (the tasks' tolerances and speed limits assume ~0.05 s), and one step
+#: would integrate that whole stretch.
+MAX_CTRL_DT = 1.0
+#: Most RK4 substeps per control step (``ctrl_dt / sim_dt``): a substep costs about 1 us on
+#: one robot, so this caps one step near 10 ms (the default is 25-40 substeps; 1e-9 s took
+#: 25 s a step).
+MAX_SUBSTEPS = 10_000
+#: Range backends of the navigate task's range sensor.
+RANGE_BACKENDS = ("analytic", "pymunk")
+
+
+def _check_dt(name: str, value: Any, high: float = math.inf) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a positive number of seconds, got {value!r}")
+    v = float(value)
+    if not (math.isfinite(v) and 0 < v <= high):
+        raise ValueError(f"{name} must be a positive finite number of seconds"
+                         + (f" <= {high:g}" if high < math.inf else "") + f", got {value!r}")
+    return v
+
+
+def _check_number(name: str, value: Any, low: float = -math.inf) -> float:
+    """``value`` as a float: a real number (not bool, not a string), finite and >= ``low``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    v = float(value)
+    if not (math.isfinite(v) and v >= low):
+        raise ValueError(f"{name} must be a finite number" + (f" >= {low:g}" if low > -math.inf
+                                                               else "") + f", got {value!r}")
+    return v
+
+
+def _check_randomize(spec: RobotSpec, randomize: Any) -> dict[str, tuple[float, float]]:
+    """``randomize`` as group -> (low, high) (``{}``: none); the checks that need only the
+    spec (the core checks the ranges' extremes on the model)."""
+    if randomize is None or randomize is False:
+        return {}
+    if randomize is True:
+        out = dict(spec.default_randomize)
+        if not out:  # nothing to draw: say so rather than silently randomise nothing
+            raise ValueError(
+                f"randomize=True: {spec.name} has no parameters to randomise (its model has "
+                f"no randomize groups); pass randomize=None")
+        return out
+    if not isinstance(randomize, Mapping):
+        raise TypeError(f"randomize must be a dict, True or None, got {randomize!r}")
+    out = {}
+    for k, v in randomize.items():
+        if k not in spec.randomize:
+            raise ValueError(
+                f"unknown randomize key {k!r} for {spec.name}; valid keys: "
+                f"{list(spec.randomize)} (all groups: {list(RANDOMIZE_GROUPS)})"
+            )
+        kinds = {kind for _, kind in spec.randomize[k]}
+        if np.ndim(v) == 0:
+            v = float(v)
+            if "abs" in kinds:
+                raise ValueError(f"randomize[{k!r}] needs an absolute (low, high) range")
+            if not (math.isfinite(v) and 0 <= v < 1):
+                raise ValueError(f"randomize[{k!r}] as a fraction must be in [0, 1), got {v}")
+            v = (1.0 - v, 1.0 + v)
+        lo, hi = (float(a) for a in v)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise ValueError(f"randomize[{k!r}] must be a finite (low, high), got {v!r}")
+        if "rel" in kinds and lo <= 0:
+            raise ValueError(f"randomize[{k!r}] relative factors must be > 0, got {v!r}")
+        out[k] = (lo, hi)
+    return out
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig:
+    """The keyword arguments of every wheelgym environment, validated and normalised.
+
+    The fields hold the resolved values: ``action_mode`` the robot's default when not given,
+    ``ctrl_dt`` and ``sim_dt`` the model's defaults (floats), ``randomize`` a dict group ->
+    ``(low, high)`` (``{}``: none), ``params`` a dict. Building a config from another's fields
+    gives an equal config. The meaning of each field is the "Arguments" table of
+    :class:`~wheelgym.envs.wheel_env.WheelEnv`.
+
+    Attributes:
+        robot: robot name (``"ThreeWheel"``...; ``wheelgym.envs.robots``).
+        task: ``"goal"``, ``"track"`` or ``"navigate"``.
+        action_mode: one of the robot's action modes.
+        params: parameter overrides (field names of the robot's Params dataclass).
+        ctrl_dt, sim_dt: control period and RK4 substep (s).
+        randomize: group -> (low, high) ranges drawn at each reset.
+        obs_noise: std of the Gaussian observation noise (>= 0).
+        reward_weights: term -> weight overrides (the task checks the keys), or None.
+        render_mode: None or one of ``render_modes``.
+        range_backend: navigate's rays, ``"analytic"`` or ``"pymunk"``.
+        horizon: track: reference steps evaluated at a reset by small batches.
+        render_modes: the render modes the environment class offers (not compared).
+    """
+
+    robot: str
+    task: str = "goal"
+    action_mode: str | None = None
+    params: Mapping[str, Any] | None = None
+    ctrl_dt: float | None = None
+    sim_dt: float | None = None
+    randomize: Mapping[str, Any] | bool | None = None
+    obs_noise: float = 0.0
+    reward_weights: Mapping[str, float] | None = None
+    render_mode: str | None = None
+    range_backend: str = "analytic"
+    horizon: int = DEFAULT_HORIZON
+    render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
+                                                      compare=False)
+
+    def __post_init__(self) -> None:
+        """Every keyword check, in this order (the first bad keyword raises)."""
+        put = self._put
+        if self.render_mode is not None and self.render_mode not in self.render_modes:
+            raise ValueError(f"render_mode must be None or one of {list(self.render_modes)}, "
+                             f"got {self.render_mode!r}")
+        spec = self.spec
+        if self.task not in TASKS:
+            raise ValueError(f"unknown task {self.task!r}; valid tasks: {list(TASKS)}")
+        mode = spec.action_modes[0] if self.action_mode is None else self.action_mode
+        if mode not in spec.action_modes:
+            raise ValueError(
+                f"unknown action_mode {self.action_mode!r} for {spec.name}; valid modes: "
+                f"{list(spec.action_modes)}"
+            )
+        put("action_mode", mode)
+        if self.params is not None and not isinstance(self.params, Mapping):
+            raise TypeError(f"params must be a dict of parameter overrides, got {self.params!r}")
+        put("params", dict(self.params or {}))
+        model_cls = spec.model_cls
+        dt = _check_dt("ctrl_dt", model_cls.default_ctrl_dt if self.ctrl_dt is None
+                       else self.ctrl_dt, MAX_CTRL_DT)
+        sdt = _check_dt("sim_dt", model_cls.default_sim_dt if self.sim_dt is None
+                        else self.sim_dt)
+        if sdt > dt:
+            raise ValueError(f"sim_dt ({sdt}) must not exceed ctrl_dt ({dt})")
+        if dt / sdt > MAX_SUBSTEPS + 0.5:
+            raise ValueError(
+                f"ctrl_dt / sim_dt ({dt} / {sdt}) must be at most {MAX_SUBSTEPS} RK4 "
+                f"substeps per control step (each costs about 1 us a robot); raise sim_dt"
+            )
+        put("ctrl_dt", dt)
+        put("sim_dt", sdt)
+        put("randomize", _check_randomize(spec, self.randomize))
+        put("obs_noise", _check_number("obs_noise", self.obs_noise, 0.0))
+        h = self.horizon
+        if isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1:
+            raise ValueError(f"horizon must be a positive int, got {h!r}")
+        put("horizon", int(h))
+        if self.reward_weights is not None and not isinstance(self.reward_weights, Mapping):
+            raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
+        if self.task != "navigate" and self.range_backend != "analytic":
+            raise ValueError("range_backend applies to task='navigate' only")
+        # (navigate's sensor checks the backend's name, listing the valid ones)
+
+    def _put(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def spec(self) -> RobotSpec:
+        """The robot's :class:`~wheelgym.envs.robots.RobotSpec` (``ValueError`` for an unknown
+        robot, listing the robots)."""
+        return get_spec(self.robot)
+
+    @property
+    def n_substeps(self) -> int:
+        """RK4 substeps per control step (``ctrl_dt / sim_dt`` rounded)."""
+        return n_substeps(self.ctrl_dt, self.sim_dt)
+
+    def task_kwargs(self) -> dict[str, Any]:
+        """Keywords of the task's constructor beyond the core and the reward weights."""
+        return {"range_backend": self.range_backend} if self.task == "navigate" else {}
+
+    def replace(self, **changes: Any) -> EnvConfig:
+        """A new config with ``changes`` (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_kwargs(cls, owner: str, robot: str, kwargs: Mapping[str, Any],
+                    render_modes: tuple[str, ...] = RENDER_MODES) -> EnvConfig:
+        """The config of ``owner(**kwargs)``; an unknown keyword raises ``TypeError`` as
+        Python does for a signature, listing the valid ones."""
+        unknown = [k for k in kwargs if k not in KEYWORDS]
+        if unknown:
+            raise TypeError(f"{owner}() got an unexpected keyword argument {unknown[0]!r}; "
+                            f"valid keywords: {list(KEYWORDS)}")
+        return cls(robot, render_modes=render_modes, **kwargs)
+
+
+#: The environments' keywords (the fields a user sets; ``robot`` comes from the class).
+KEYWORDS: dict[str, dataclasses.Field] = {
+    f.name: f for f in dataclasses.fields(EnvConfig) if f.name not in ("robot", "render_modes")
+}
+
+
+def signature_with(*extra: inspect.Parameter, keywords: tuple[str, ...] | None = None
+                   ) -> inspect.Signature:
+    """``(self, *extra, <the config's keywords>)`` as keyword parameters with their defaults
+    and annotations (for ``help()`` and ``inspect.signature`` of the env classes)."""
+    names = list(KEYWORDS) if keywords is None else list(keywords)
+    params = [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD), *extra]
+    params += [inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=KEYWORDS[n].default,
+                                 annotation=KEYWORDS[n].type) for n in names]
+    return inspect.Signature(params)
