@@ -129,8 +129,8 @@ class Renderer:
     def _set_view(self, i: int) -> None:
         c = self.core
         task = c.task
-        if c.task_name == "navigate":
-            self.center = np.zeros(2)
+        if c.task_name == "navigate":  # the whole arena (a map's bounds, or the random one's)
+            self.center = np.array(getattr(task.arena, "center", (0.0, 0.0)), dtype=float)
             half = task.arena.half_size + 0.3
         else:
             pts = [c.pose[i, :2]]
@@ -175,6 +175,8 @@ class Renderer:
         x, y, yaw = (float(v) for v in c.pose[i])
         task = c.task
         if c.task_name == "navigate":
+            for poly in getattr(task.arena, "polygons", ()):  # a map's solid areas
+                pg.draw.polygon(s, _OBST, [self._px(px, py) for px, py in poly])
             for k in range(task.nc[i]):
                 cx, cy, r = task.circles[i, k]
                 pg.draw.circle(s, _OBST, self._px(cx, cy), max(1, int(r * self.scale)))

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import os
 from collections.abc import Mapping
 from typing import Any
 
@@ -124,6 +125,9 @@ class EnvConfig:
         reward_weights: term -> weight overrides (the task checks the keys), or None.
         render_mode: None or one of ``render_modes``.
         range_backend: navigate's rays, ``"analytic"`` or ``"pymunk"``.
+        arena: navigate's static world: None (random circles and boxes, redrawn each reset), a
+            shipped map's name (``wheelgym.world.MAPS``) or a map file's path (ROS map_server
+            YAML or a YAML of shapes; :func:`wheelgym.world.load_map`).
         horizon: track: reference steps evaluated at a reset by small batches.
         render_modes: the render modes the environment class offers (not compared).
     """
@@ -139,6 +143,7 @@ class EnvConfig:
     reward_weights: Mapping[str, float] | None = None
     render_mode: str | None = None
     range_backend: str = "analytic"
+    arena: str | os.PathLike | None = None
     horizon: int = DEFAULT_HORIZON
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
@@ -186,6 +191,13 @@ class EnvConfig:
             raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
         if self.task != "navigate" and self.range_backend != "analytic":
             raise ValueError("range_backend applies to task='navigate' only")
+        if self.arena is not None:
+            if not isinstance(self.arena, (str, os.PathLike)):
+                raise TypeError(f"arena must be None, a shipped map's name or a map file's path, "
+                                f"got {self.arena!r}")
+            if self.task != "navigate":
+                raise ValueError("arena applies to task='navigate' only")
+            put("arena", os.fspath(self.arena))  # (the task loads it: one-line errors)
         # (navigate's sensor checks the backend's name, listing the valid ones)
 
     def _put(self, name: str, value: Any) -> None:
@@ -205,7 +217,9 @@ class EnvConfig:
 
     def task_kwargs(self) -> dict[str, Any]:
         """Keywords of the task's constructor beyond the core and the reward weights."""
-        return {"range_backend": self.range_backend} if self.task == "navigate" else {}
+        if self.task != "navigate":
+            return {}
+        return {"range_backend": self.range_backend, "arena": self.arena}
 
     def replace(self, **changes: Any) -> EnvConfig:
         """A new config with ``changes`` (validated)."""

@@ -124,6 +124,9 @@ there once (the vector env takes the same).
 | reward_weights | task defaults     | dict term -> weight (finite real numbers)               |
 | render_mode    | None              | "rgb_array" (600 x 600 x 3) or "human"                  |
 | range_backend  | "analytic"        | navigate's rays: "analytic" (compiled) or "pymunk"      |
+| arena          | None              | navigate's world: None (random obstacles each reset), a |
+|                |                   | shipped map ("warehouse", "office", "maze") or the path |
+|                |                   | of a ROS map_server YAML or a YAML of shapes            |
 | horizon        | 500               | track: steps of the reference the single env evaluates  |
 |                |                   | at a reset (at most 4096; it moves on by windows past)  |
 

@@ -232,8 +232,8 @@ class NavigateTask(GoalTask):
     max_range = 3.0
 
     def __init__(self, core: BatchView, weights: Mapping[str, float] | None,
-                 range_backend: str = "analytic") -> None:
-        from wheelgym.world import Arena
+                 range_backend: str = "analytic", arena: str | None = None) -> None:
+        from wheelgym.world import Arena, load_map
 
         super().__init__(core, weights)
         if range_backend not in ("analytic", "pymunk"):
@@ -241,9 +241,11 @@ class NavigateTask(GoalTask):
                 f"range_backend must be one of ['analytic', 'pymunk'], got {range_backend!r}"
             )
         self.backend = range_backend
-        self.arena = Arena()
+        #: the random arena (redrawn at each reset) or a map's static world (start and goal
+        #: drawn in its reachable free space at each reset)
+        self.arena = Arena() if arena is None else load_map(arena)
         N = core.num
-        self.circles = np.zeros((N, self.arena.max_circles, 3))
+        self.circles = np.zeros((N, max(1, self.arena.max_circles), 3))
         self.nc = np.zeros(N, dtype=np.int64)
         self.segs = np.zeros((N, self.arena.max_segments, 4))
         self.ns = np.zeros(N, dtype=np.int64)
@@ -273,11 +275,18 @@ class NavigateTask(GoalTask):
         """``ValueError`` unless the robot's circle at ``pose`` is free of the layout."""
         from wheelgym.world import k_clearance
 
+        r = self.core.spec.radius
+        if hasattr(self.arena, "is_free"):  # a map: inside its walls, clear of its obstacles
+            if not self.arena.is_free(pose[None, :2], r)[0]:
+                raise ValueError(
+                    f"options[{key!r}] = {pose.tolist()} is not free: the robot's circle "
+                    f"(radius {r} m) must lie in the map's free space "
+                    f"({self.arena.path.name})")
+            return
         clear = np.empty(1)
         k_clearance(pose[None, :2], world.circles[None], np.array([len(world.circles)]),
                     world.segments[None], np.array([len(world.segments)]), clear)
         lim = self.arena.half_size
-        r = self.core.spec.radius
         if not (clear[0] >= r and abs(pose[0]) < lim and abs(pose[1]) < lim):
             raise ValueError(f"options[{key!r}] = {pose.tolist()} is not free: the robot's "
                              f"circle (radius {r} m) must lie inside the walls (+-{lim} m) "
