@@ -499,6 +499,7 @@ def model_kernels(
     deriv_block: Any = None,
     power: Any = None,
     npar: int = 0,
+    suffix: str = "",
 ) -> ModelKernels:
     """Compile the generic kernel bodies above for one model; call from its kernel module.
 
@@ -515,12 +516,14 @@ def model_kernels(
             at a time (:func:`rk4_inplace`).
         power: compiled ``pw(x, xdot, u, p)``, the motor power of the blocks' work integral.
         npar: length of the packed parameter array (blocks only).
+        suffix: appended to the kernels' names (``k_step_dc``...), for a second set of
+            kernels in the same module (its own cache entries).
     """
     dim = _const_dim(state_dim) if isinstance(state_dim, int) else state_dim
     slots = {"DERIV_ONE": deriv_one, "STATE_DIM": dim, "NU": nu}
 
     def inst(body, name, **options):
-        return _instance(body, module, file, name, slots, **options)
+        return _instance(body, module, file, name + suffix, slots, **options)
 
     deriv = inst(_k_deriv, "k_deriv")
     deriv1 = inst(_k_deriv1, "k_deriv1", sig=DERIV1_SIG)

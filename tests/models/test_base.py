@@ -43,7 +43,7 @@ def test_params_defaults_roundtrip():
     assert hash(p) == hash(SkidSteerParams())
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.m = 1.0  # type: ignore[misc]
-    assert p.pack().dtype == np.float64 and p.pack().shape == (12,)
+    assert p.pack().dtype == np.float64 and p.pack().shape == (23,)  # 12 + 1/r, motor (11)
 
 
 @pytest.mark.parametrize("build", [

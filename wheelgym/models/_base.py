@@ -67,6 +67,7 @@ class Params:
     Subclasses list field names in ``_positive`` (must be > 0) and ``_nonnegative`` (>= 0);
     every numeric field must be finite and, where ``_bounds`` names it, within its physical
     bounds (``(low, high, unit)``, e.g. :data:`LENGTH`; every entry of a tuple field).
+    String fields list their valid values in ``_choices``.
     Subclasses add their own checks in ``_check``.
     Construction with an unknown keyword raises ``TypeError`` (a dataclass does that itself;
     :meth:`from_dict` and :meth:`replace` also list the valid names).
@@ -75,10 +76,19 @@ class Params:
     _positive: ClassVar[tuple[str, ...]] = ()
     _nonnegative: ClassVar[tuple[str, ...]] = ()
     _bounds: ClassVar[Mapping[str, tuple[float, float, str]]] = {}
+    #: String fields and their valid values (e.g. ``motor``: ``("ideal", "dc", ...)``).
+    _choices: ClassVar[Mapping[str, tuple[str, ...]]] = {}
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name in self._choices:
+                if value not in self._choices[f.name]:
+                    raise ValueError(
+                        f"{type(self).__name__}.{f.name} must be one of "
+                        f"{list(self._choices[f.name])}, got {value!r}"
+                    )
+                continue
             arr = np.asarray(value)
             if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
                 raise TypeError(
@@ -218,7 +228,15 @@ class Model:
         cls = type(self)
         self._step1 = cls._k_step1
         self._deriv1 = cls._k_deriv1
+        self._kd = getattr(cls, "_k_deriv", None)
+        self._ks = getattr(cls, "_k_step", None)
+        self._ksp = getattr(cls, "_k_step_par", None)
+        self._bind_kernels()
         self._nx = len(cls.state_names)
+
+    def _bind_kernels(self) -> None:
+        """Hook: replace the instance's kernels (``_kd``, ``_ks``, ``_ksp``, ``_step1``,
+        ``_deriv1``) by another compiled set for these parameters (the DC-motor models)."""
 
     # ------------------------------------------------------------------ sizes and names
     @property
@@ -327,7 +345,7 @@ class Model:
                 self._raise_status(status, "derivative", x, u)
         X, U, lead = self._prepare(x, u)
         out = np.empty_like(X)
-        type(self)._k_deriv(X, U, self._p, out)
+        self._kd(X, U, self._p, out)
         if not np.isfinite(out).all():
             for name, arr in (("x", X), ("u", U)):
                 if not np.isfinite(arr).all():
@@ -385,7 +403,7 @@ class Model:
             ):
                 # A model without ``_k_step1``: its serial batch kernel on a (1, n) view.
                 out = np.empty((1, self._nx))
-                if type(self)._k_step(
+                if self._ks(
                     x.reshape(1, -1), u.reshape(1, -1), self._p, dt / n_substeps, n_substeps, out
                 ):
                     if _itg.all_finite(out):
@@ -402,7 +420,7 @@ class Model:
             raise ValueError(f"dt must be a positive finite number of seconds, got {dt!r}")
         X, U, lead = self._prepare(x, u)
         out = np.empty_like(X)
-        kernel = type(self)._k_step_par if X.shape[0] >= PARALLEL_MIN_BATCH else type(self)._k_step
+        kernel = self._ksp if X.shape[0] >= PARALLEL_MIN_BATCH else self._ks
         if not kernel(X, U, self._p, float(dt) / n, n, out):
             bad = "x" if not np.isfinite(X).all() else "u"
             raise ValueError(f"{bad} passed to {type(self).__name__}.step is not finite")

@@ -64,6 +64,18 @@ from wheelgym.models._base import (
     Params,
 )
 from wheelgym.models.kernels import caster_agv as _kern
+from wheelgym.models.motor import (
+    CURRENT,
+    EFFICIENCY,
+    GEAR_RATIO,
+    MODES,
+    RESISTANCE,
+    TORQUE_CONSTANT,
+    VOLTAGE,
+    MotorMixin,
+    mode_code,
+    pack_motor,
+)
 
 __all__ = ["CasterAGVParams", "CasterAGV"]
 
@@ -96,6 +108,18 @@ class CasterAGVParams(Params):
     | k_s         | 100.0         | s/m       | arctan smoothing of the friction sign          |
     | g           | 9.81          | m/s²      | gravity                                        |
     | tau_max     | 6.0           | N·m       | torque limit of each drive motor               |
+    | motor       | "ideal"       | -         | "ideal", "dc" or "dc_voltage" (models/motor.py) |
+    | gear_ratio  | 15.0          | -         | drive gearbox ratio n (two equal motors)       |
+    | gear_efficiency | 0.85      | -         | drive gearbox efficiency eta                   |
+    | k_t         | 0.05          | N·m/A     | torque constant (= k_e, V·s/rad)               |
+    | R_w         | 1.2           | ohm       | winding resistance                             |
+    | V_s         | 24.0          | V         | supply voltage                                 |
+    | I_max       | 10.0          | A         | current limit of each drive                    |
+
+    DC motors (``motor="dc"``, :mod:`wheelgym.models.motor`; ThreeWheel's drive motor):
+    stall torque ``15 * 0.85 * 0.05 * min(20, 10) = 6.375 N·m`` (>= ``tau_max``), corner speed
+    16 rad/s (1.2 m/s), no-load joint speed ``V_s / (k_e n) = 32 rad/s`` (2.4 m/s). With
+    ``motor="ideal"`` these fields are unused.
 
     The caster axis must lie off the axle, farther from it than the trail (``|a_x| > d``), and
     the centre of mass must stay strictly inside the support triangle for every swivel angle
@@ -131,7 +155,15 @@ class CasterAGVParams(Params):
     k_s: float = 100.0
     g: float = 9.81
     tau_max: float = 6.0
+    motor: str = "ideal"
+    gear_ratio: float = 15.0
+    gear_efficiency: float = 0.85
+    k_t: float = 0.05
+    R_w: float = 1.2
+    V_s: float = 24.0
+    I_max: float = 10.0
 
+    _choices: ClassVar[dict[str, tuple[str, ...]]] = {"motor": tuple(MODES)}
     _positive: ClassVar[tuple[str, ...]] = (
         "m_b", "I_b", "m_w", "I_wy", "I_wz", "r", "track_width", "d", "r_c", "m_c", "I_cy",
         "I_cz", "rho", "k_s", "g", "tau_max",
@@ -143,7 +175,8 @@ class CasterAGVParams(Params):
         "track_width": LENGTH, "caster_axis": SIGNED_LENGTH, "d": LENGTH, "r_c": LENGTH,
         "mu_r": COEFFICIENT, "mu_p": (0.0, LENGTH[1], "m"), "rho": LENGTH,
         "b_drive": DAMPING, "b_caster": DAMPING, "k_s": SMOOTHING, "g": GRAVITY,
-        "tau_max": TORQUE,
+        "tau_max": TORQUE, "gear_ratio": GEAR_RATIO, "gear_efficiency": EFFICIENCY,
+        "k_t": TORQUE_CONSTANT, "R_w": RESISTANCE, "V_s": VOLTAGE, "I_max": CURRENT,
     }
 
     def _check(self) -> None:
@@ -189,9 +222,18 @@ class CasterAGVParams(Params):
              1.0 / self.r, 1.0 / self.r_c, 1.0 / self.d,
              self.I_b + self.m_b * self.x_G**2 + 2.0 * self.I_wz, self.m_b * self.x_G,
              self.g * self.m_b * self.x_G, self.g * self.m_c, self.g * (self.m_b + 2 * self.m_w),
-             1.0 / self.c, self.b_drive / self.r**2, self.b_caster / self.r_c**2],
+             1.0 / self.c, self.b_drive / self.r**2, self.b_caster / self.r_c**2,
+             mode_code(self.motor),
+             *pack_motor(self.gear_ratio, self.gear_efficiency, self.k_t, self.R_w, self.V_s,
+                         self.I_max)],
             dtype=np.float64,
         )
+
+    def motor_table(self) -> dict[str, np.ndarray]:
+        """DC-motor parameters per motor ``(tau_L, tau_R)`` (keys
+        :data:`wheelgym.models.motor.TABLE_KEYS`)."""
+        return {k: np.full(2, float(getattr(self, k))) for k in
+                ("gear_ratio", "gear_efficiency", "k_t", "R_w", "V_s", "I_max")}
 
 
 def _loads_numpy(p: CasterAGVParams, sig: np.ndarray) -> np.ndarray:
@@ -204,7 +246,7 @@ def _loads_numpy(p: CasterAGVParams, sig: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- the model
-class CasterAGV(Model):
+class CasterAGV(MotorMixin, Model):
     """Differential-drive AGV with a passive trailing caster (physics.md section 5).
 
     | index | state   | unit  | meaning                          |   | index | input | unit |
@@ -243,6 +285,8 @@ class CasterAGV(Model):
     _k_step_par = _kern.KERNELS.step_par
     _k_step1 = _kern.KERNELS.step1
     _k_deriv1 = _kern.KERNELS.deriv1
+    _k_motor = _kern.k_motor
+    _kern_module = _kern
     friction_params = ("mu_r", "mu_p", "b_drive", "b_caster")
 
     params: CasterAGVParams
@@ -338,8 +382,10 @@ class CasterAGV(Model):
         return 0.5 * np.einsum("...i,...ij,...j->...", u, self.mass_matrix(X[..., 5]), u)
 
     def motor_power(self, x: Any, u: Any) -> np.ndarray:
-        """Mechanical power of the two motors ``tau_L thetadot_L + tau_R thetadot_R`` (W)."""
-        U = self._as_batch(u, self.input_dim, "u")
+        """Mechanical power of the two motors at the joints ``tau_L thetadot_L + tau_R
+        thetadot_R`` (W); ``tau`` the applied torques (the command for ideal motors,
+        :meth:`applied_torque`)."""
+        U = self.applied_torque(x, u) if self.dc else self._as_batch(u, self.input_dim, "u")
         return np.sum(U * self.joint_velocity(x)[..., :2], axis=-1)
 
     def friction_power(self, x: Any) -> np.ndarray:

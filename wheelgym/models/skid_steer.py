@@ -29,6 +29,18 @@ from wheelgym.models._base import (
     Params,
 )
 from wheelgym.models.kernels import skid_steer as _kern
+from wheelgym.models.motor import (
+    CURRENT,
+    EFFICIENCY,
+    GEAR_RATIO,
+    MODES,
+    RESISTANCE,
+    TORQUE_CONSTANT,
+    VOLTAGE,
+    MotorMixin,
+    mode_code,
+    pack_motor,
+)
 
 __all__ = ["SkidSteerParams", "SkidSteer"]
 
@@ -51,6 +63,19 @@ class SkidSteerParams(Params):
     | k_s      | 100.0   | s/m   | arctan smoothing of the friction sign                    |
     | g        | 9.81    | m/s²  | gravity                                                  |
     | tau_max  | 30.0    | N·m   | torque limit of each motor                               |
+    | motor    | "ideal" | -     | "ideal", "dc" or "dc_voltage" (models/motor.py)          |
+    | gear_ratio | 40.0  | -     | gearbox ratio n (four equal motors)                      |
+    | gear_efficiency | 0.8 | -  | gearbox efficiency eta                                   |
+    | k_t      | 0.05    | N·m/A | torque constant (= k_e, V·s/rad)                         |
+    | R_w      | 0.3     | ohm   | winding resistance                                       |
+    | V_s      | 24.0    | V     | supply voltage                                           |
+    | I_max    | 20.0    | A     | current limit of each drive                              |
+
+    DC motors (``motor="dc"``, :mod:`wheelgym.models.motor`): stall torque
+    ``n eta k_t min(V_s / R_w, I_max) = 40 * 0.8 * 0.05 * min(80, 20) = 32 N·m``
+    (>= ``tau_max``), falling linearly above the corner speed ``(V_s - I_max R_w) / (k_e n)
+    = 9 rad/s`` (1.49 m/s) to zero at the no-load joint speed ``V_s / (k_e n) = 12 rad/s``
+    (1.98 m/s of wheel speed). With ``motor="ideal"`` these fields are unused.
     """
 
     m: float = 56.6
@@ -65,13 +90,23 @@ class SkidSteerParams(Params):
     k_s: float = 100.0
     g: float = 9.81
     tau_max: float = 30.0
+    motor: str = "ideal"
+    gear_ratio: float = 40.0
+    gear_efficiency: float = 0.8
+    k_t: float = 0.05
+    R_w: float = 0.3
+    V_s: float = 24.0
+    I_max: float = 20.0
 
+    _choices: ClassVar[dict[str, tuple[str, ...]]] = {"motor": tuple(MODES)}
     _positive: ClassVar[tuple[str, ...]] = ("m", "I", "a", "b", "c", "r", "k_s", "g", "tau_max")
     _nonnegative: ClassVar[tuple[str, ...]] = ("mu_s", "mu_l")
     _bounds: ClassVar[dict[str, tuple[float, float, str]]] = {
         "m": MASS, "I": INERTIA, "a": LENGTH, "b": LENGTH, "c": LENGTH, "r": LENGTH,
         "x_icr": SIGNED_LENGTH, "mu_s": COEFFICIENT, "mu_l": COEFFICIENT, "k_s": SMOOTHING,
-        "g": GRAVITY, "tau_max": TORQUE,
+        "g": GRAVITY, "tau_max": TORQUE, "gear_ratio": GEAR_RATIO,
+        "gear_efficiency": EFFICIENCY, "k_t": TORQUE_CONSTANT, "R_w": RESISTANCE,
+        "V_s": VOLTAGE, "I_max": CURRENT,
     }
 
     def _check(self) -> None:
@@ -86,9 +121,17 @@ class SkidSteerParams(Params):
         :mod:`wheelgym.models.kernels.skid_steer`."""
         return np.array(
             [self.m, self.I, self.a, self.b, self.c, self.r, self.x_icr, self.mu_s, self.mu_l,
-             self.k_s, self.g, self.tau_max],
+             self.k_s, self.g, self.tau_max, 1.0 / self.r, mode_code(self.motor),
+             *pack_motor(self.gear_ratio, self.gear_efficiency, self.k_t, self.R_w, self.V_s,
+                         self.I_max)],
             dtype=np.float64,
         )
+
+    def motor_table(self) -> dict[str, np.ndarray]:
+        """DC-motor parameters per motor (four equal motors; keys
+        :data:`wheelgym.models.motor.TABLE_KEYS`)."""
+        return {k: np.full(4, float(getattr(self, k))) for k in
+                ("gear_ratio", "gear_efficiency", "k_t", "R_w", "V_s", "I_max")}
 
     # Derived quantities -------------------------------------------------------------
     @property
@@ -106,7 +149,7 @@ class SkidSteerParams(Params):
 
 
 # ---------------------------------------------------------------------------- the model
-class SkidSteer(Model):
+class SkidSteer(MotorMixin, Model):
     """Four-wheel skid-steer robot (Kozlowski-Pazderski, physics.md section 3).
 
     | index | state | unit  |   | index | input | unit |
@@ -138,6 +181,8 @@ class SkidSteer(Model):
     _k_step_par = _kern.KERNELS.step_par
     _k_step1 = _kern.KERNELS.step1
     _k_deriv1 = _kern.KERNELS.deriv1
+    _k_motor = _kern.k_motor
+    _kern_module = _kern
 
     params: SkidSteerParams
 
@@ -207,8 +252,9 @@ class SkidSteer(Model):
         return 0.5 * p.m * X[..., 3] ** 2 + 0.5 * (p.m * p.x_icr**2 + p.I) * X[..., 4] ** 2
 
     def motor_power(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Mechanical power of the motors, ``sum tau_k omega_k`` (W)."""
-        U = self._as_batch(u, self.input_dim, "u")
+        """Mechanical power of the motors at the joints, ``sum tau_k omega_k`` (W); ``tau`` the
+        applied torques (the command for ideal motors, :meth:`applied_torque`)."""
+        U = self.applied_torque(x, u) if self.dc else self._as_batch(u, self.input_dim, "u")
         return np.sum(U * self.joint_velocity(x), axis=-1)
 
     def friction_power(self, x: np.ndarray) -> np.ndarray:

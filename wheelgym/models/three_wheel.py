@@ -39,6 +39,18 @@ from wheelgym.models._base import (
     Params,
 )
 from wheelgym.models.kernels import three_wheel as _kern
+from wheelgym.models.motor import (
+    CURRENT,
+    EFFICIENCY,
+    GEAR_RATIO,
+    MODES,
+    RESISTANCE,
+    TORQUE_CONSTANT,
+    VOLTAGE,
+    MotorMixin,
+    mode_code,
+    pack_motor,
+)
 
 __all__ = ["ThreeWheelParams", "ThreeWheel", "RK4_REAL_STABILITY_LIMIT"]
 
@@ -73,7 +85,26 @@ class ThreeWheelParams(Params):
     | g             | 9.81    | m/s²      | gravity                                      |
     | tau_drive_max | 6.0     | N·m       | drive-motor torque limit                     |
     | tau_steer_max | 3.0     | N·m       | steering-motor torque limit                  |
+    | motor         | "ideal" | -         | "ideal", "dc" or "dc_voltage" (models/motor.py) |
+    | V_s           | 24.0    | V         | supply voltage of all six motors             |
+    | gear_ratio_drive | 15.0 | -         | drive gearbox ratio n                        |
+    | gear_efficiency_drive | 0.85 | -    | drive gearbox efficiency eta                 |
+    | k_t_drive     | 0.05    | N·m/A     | drive torque constant (= k_e, V·s/rad)       |
+    | R_w_drive     | 1.2     | ohm       | drive winding resistance                     |
+    | I_max_drive   | 10.0    | A         | drive current limit                          |
+    | gear_ratio_steer | 30.0 | -         | steering gearbox ratio n                     |
+    | gear_efficiency_steer | 0.8 | -     | steering gearbox efficiency eta              |
+    | k_t_steer     | 0.03    | N·m/A     | steering torque constant (= k_e, V·s/rad)    |
+    | R_w_steer     | 2.0     | ohm       | steering winding resistance                  |
+    | I_max_steer   | 5.0     | A         | steering current limit                       |
 
+    DC motors (``motor="dc"``, the law of :mod:`wheelgym.models.motor`): the drive motors'
+    stall torque is ``n eta k_t min(V_s / R_w, I_max) = 15 * 0.85 * 0.05 * min(20, 10) =
+    6.375 N·m`` (>= ``tau_drive_max``), falling linearly above the corner speed
+    ``(V_s - I_max R_w) / (k_e n) = 16 rad/s`` (1.2 m/s of wheel speed) to zero at the
+    no-load joint speed ``V_s / (k_e n) = 32 rad/s`` (2.4 m/s); the steering motors' stall
+    torque is ``30 * 0.8 * 0.03 * min(12, 5) = 3.6 N·m`` (>= ``tau_steer_max``), corner
+    15.6 rad/s, no-load 26.7 rad/s. With ``motor="ideal"`` these fields are unused.
     ``axes`` defaults to ``((-0.20, 0.20), (-0.20, -0.20), (0.25, 0.0))``: wheel 1
     rear-left, 2 rear-right, 3 front.
 
@@ -99,7 +130,20 @@ class ThreeWheelParams(Params):
     g: float = 9.81
     tau_drive_max: float = 6.0
     tau_steer_max: float = 3.0
+    motor: str = "ideal"
+    V_s: float = 24.0
+    gear_ratio_drive: float = 15.0
+    gear_efficiency_drive: float = 0.85
+    k_t_drive: float = 0.05
+    R_w_drive: float = 1.2
+    I_max_drive: float = 10.0
+    gear_ratio_steer: float = 30.0
+    gear_efficiency_steer: float = 0.8
+    k_t_steer: float = 0.03
+    R_w_steer: float = 2.0
+    I_max_steer: float = 5.0
 
+    _choices: ClassVar[dict[str, tuple[str, ...]]] = {"motor": tuple(MODES)}
     _positive: ClassVar[tuple[str, ...]] = (
         "m_b", "I_b", "m_w", "I_wy", "I_wz", "r", "d", "rho", "k_s", "g",
         "tau_drive_max", "tau_steer_max",
@@ -110,6 +154,10 @@ class ThreeWheelParams(Params):
         "r": LENGTH, "d": LENGTH, "axes": SIGNED_LENGTH, "mu_r": COEFFICIENT,
         "mu_p": (0.0, LENGTH[1], "m"), "rho": LENGTH, "b_drive": DAMPING, "b_steer": DAMPING,
         "k_s": SMOOTHING, "g": GRAVITY, "tau_drive_max": TORQUE, "tau_steer_max": TORQUE,
+        "V_s": VOLTAGE, "gear_ratio_drive": GEAR_RATIO, "gear_efficiency_drive": EFFICIENCY,
+        "k_t_drive": TORQUE_CONSTANT, "R_w_drive": RESISTANCE, "I_max_drive": CURRENT,
+        "gear_ratio_steer": GEAR_RATIO, "gear_efficiency_steer": EFFICIENCY,
+        "k_t_steer": TORQUE_CONSTANT, "R_w_steer": RESISTANCE, "I_max_steer": CURRENT,
     }
 
     def _check(self) -> None:
@@ -160,6 +208,20 @@ class ThreeWheelParams(Params):
         """Torque limits in motor order ``[drive_1..3, steer_1..3]`` (N·m)."""
         return np.array([self.tau_drive_max] * 3 + [self.tau_steer_max] * 3)
 
+    def motor_table(self) -> dict[str, np.ndarray]:
+        """DC-motor parameters per motor in motor order ``[drive_1..3, steer_1..3]``
+        (keys :data:`wheelgym.models.motor.TABLE_KEYS`)."""
+        def rows(drive: float, steer: float) -> np.ndarray:
+            return np.array([drive] * 3 + [steer] * 3, dtype=np.float64)
+        return {
+            "gear_ratio": rows(self.gear_ratio_drive, self.gear_ratio_steer),
+            "gear_efficiency": rows(self.gear_efficiency_drive, self.gear_efficiency_steer),
+            "k_t": rows(self.k_t_drive, self.k_t_steer),
+            "R_w": rows(self.R_w_drive, self.R_w_steer),
+            "V_s": rows(self.V_s, self.V_s),
+            "I_max": rows(self.I_max_drive, self.I_max_steer),
+        }
+
     @property
     def axes_array(self) -> np.ndarray:
         """Steering-axis positions ``a_i`` in B, shape ``(3, 2)`` (m)."""
@@ -181,13 +243,17 @@ class ThreeWheelParams(Params):
              a[0, 0], a[0, 1], a[1, 0], a[1, 1], a[2, 0], a[2, 1],
              self.mu_r, self.mu_p, self.rho, self.b_drive, self.b_steer, self.k_s, self.g,
              self.tau_drive_max, self.tau_steer_max, self.k_w, self.k_z, self.m_total,
-             1.0 / self.d, 1.0 / self.r, *m0],
+             1.0 / self.d, 1.0 / self.r, *m0, mode_code(self.motor),
+             *pack_motor(self.gear_ratio_drive, self.gear_efficiency_drive, self.k_t_drive,
+                         self.R_w_drive, self.V_s, self.I_max_drive),
+             *pack_motor(self.gear_ratio_steer, self.gear_efficiency_steer, self.k_t_steer,
+                         self.R_w_steer, self.V_s, self.I_max_steer)],
             dtype=np.float64,
         )
 
 
 # ---------------------------------------------------------------------------- the model
-class ThreeWheel(Model):
+class ThreeWheel(MotorMixin, Model):
     """Three-wheel redundantly actuated robot with steerable off-centred wheels (physics.md 2).
 
     | index | state   | unit  |   | index | input   | unit |
@@ -231,6 +297,8 @@ class ThreeWheel(Model):
     _k_step_par = _kern.KERNELS.step_par
     _k_step1 = _kern.KERNELS.step1
     _k_deriv1 = _kern.KERNELS.deriv1
+    _k_motor = _kern.k_motor
+    _kern_module = _kern
 
     friction_params = ("mu_r", "mu_p", "b_drive", "b_steer")
 
@@ -363,8 +431,9 @@ class ThreeWheel(Model):
         return 0.5 * np.einsum("...i,...ij,...j->...", u, self.mass_matrix(X[..., 6:9]), u)
 
     def motor_power(self, x, u) -> np.ndarray:
-        """Mechanical power of the six motors ``tau . qdot`` (W), shape ``(...)``."""
-        U = self._as_batch(u, self.input_dim, "u")
+        """Mechanical power of the six motors at the joints ``tau . qdot`` (W), shape ``(...)``;
+        ``tau`` the applied torques (the command for ideal motors, :meth:`applied_torque`)."""
+        U = self.applied_torque(x, u) if self.dc else self._as_batch(u, self.input_dim, "u")
         return np.sum(U * self.joint_velocity(x), axis=-1)
 
     def friction_power(self, x) -> np.ndarray:

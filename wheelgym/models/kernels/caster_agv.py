@@ -14,6 +14,10 @@ the caster's ``g_c``, ``h_c`` of :func:`gh`, ``(v, w)`` the body twist.
 | ``friction``          | ``Q_f(sigma, u)``                                          |
 | ``friction_jac_rest`` | ``dQ_f/du`` at rest                                        |
 | ``deriv_one``         | the state derivative of one state into ``out``             |
+| ``power_t``           | motor power ``tau . omega`` (ideal motors)                 |
+| ``*_dc``              | the same with DC motors (models/motor.py); ``power_t_dc``  |
+|                       | the electrical ``V . i``; ``dc_kernels()`` their kernels   |
+| ``k_motor``           | joint rate, applied torque, current, voltage per motor     |
 | ``KERNELS``           | the model's batch kernels (integrators.model_kernels)      |
 
 The formulas are those of the model module's docstring (:mod:`wheelgym.models.caster_agv`).
@@ -21,6 +25,7 @@ The formulas are those of the model module's docstring (:mod:`wheelgym.models.ca
 
 from __future__ import annotations
 
+import functools
 import math
 
 from numba import njit
@@ -29,25 +34,34 @@ from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.integrators import model_kernels
 from wheelgym.models import friction as _friction_module
+from wheelgym.models import motor as _motor_module
 from wheelgym.models.friction import sgn_s
+from wheelgym.models.motor import M_R, MOTOR_NP, dc_applied, dc_current, dc_power, ideal_applied
 
-# kernels here inline integrators.rk4_inplace and friction.sgn_s
-_numba_cache.guard(__file__, _integrators.__file__, _friction_module.__file__)
+# kernels here inline integrators.rk4_inplace, friction.sgn_s and the DC motor law of
+# models/motor.py
+_numba_cache.guard(__file__, _integrators.__file__, _friction_module.__file__,
+                   _motor_module.__file__)
 
 __all__ = [
     "P_MB", "P_IB", "P_XG", "P_MW", "P_IWY", "P_IWZ", "P_R", "P_C", "P_AX", "P_AY", "P_D",
     "P_RC", "P_MC", "P_ICY", "P_ICZ", "P_MUR", "P_MUP", "P_RHO", "P_BD", "P_BC", "P_KS", "P_G",
     "P_TMAX", "P_KW", "P_KC", "P_KCZ", "P_MT", "P_INVR", "P_INVRC", "P_INVD", "P_M11",
-    "P_MBXG", "P_GMBXG", "P_GMC", "P_GDRV", "P_INVC", "P_BDR2", "P_BCR2", "NP", "NX", "NU",
-    "gh", "loads", "mass", "bias", "friction", "friction_jac_rest", "deriv_one",
+    "P_MBXG", "P_GMBXG", "P_GMC", "P_GDRV", "P_INVC", "P_BDR2", "P_BCR2", "P_MOTOR", "P_MBLK",
+    "NP", "NX", "NU", "gh", "loads", "mass", "bias", "friction", "friction_jac_rest",
+    "deriv_one", "power_t", "deriv_one_dc", "power_t_dc", "dc_kernels", "k_motor",
     "k_sigma_pieces", "k_twist_pieces", "KERNELS",
 ]
 
-#: Indices into the packed parameter array (CasterAGVParams.pack; the last fifteen derived).
+#: Indices into the packed parameter array (CasterAGVParams.pack; P_KW .. P_BCR2 derived);
+#: P_MOTOR the motor mode code (models/motor.py MODES: 0 ideal, 1 dc, 2 dc_voltage), P_MBLK
+#: the block of the two (equal) drive motors (motor.pack_motor).
 (P_MB, P_IB, P_XG, P_MW, P_IWY, P_IWZ, P_R, P_C, P_AX, P_AY, P_D, P_RC, P_MC, P_ICY, P_ICZ,
  P_MUR, P_MUP, P_RHO, P_BD, P_BC, P_KS, P_G, P_TMAX, P_KW, P_KC, P_KCZ, P_MT, P_INVR,
- P_INVRC, P_INVD, P_M11, P_MBXG, P_GMBXG, P_GMC, P_GDRV, P_INVC, P_BDR2, P_BCR2) = range(38)
-NP = 38  # length of the packed array
+ P_INVRC, P_INVD, P_M11, P_MBXG, P_GMBXG, P_GMC, P_GDRV, P_INVC, P_BDR2, P_BCR2,
+ P_MOTOR) = range(39)
+P_MBLK = 39
+NP = P_MBLK + MOTOR_NP  # length of the packed array
 NX = 9  # state size
 NU = 2  # input size
 
@@ -143,8 +157,10 @@ def friction_jac_rest(gc0, gc1, hc0, hc1, n_l, n_r, n_c, p):  # pragma: no cover
     return -e00, -e01, -e11
 
 
-@njit(cache=True)
-def deriv_one(x, u, p, out):  # pragma: no cover - compiled
+@njit(cache=True, inline="always")
+def _deriv_one(x, u, p, out, applied):  # pragma: no cover - compiled
+    """The state derivative into ``out`` with the motor law ``applied`` (models/motor.py:
+    ``ideal_applied`` or ``dc_applied``)."""
     yaw = x[2]
     v = x[3]
     w = x[4]
@@ -156,19 +172,70 @@ def deriv_one(x, u, p, out):  # pragma: no cover - compiled
     gc0, gc1, hc0, hc1 = gh(cs, sn, p)
     c = p[P_C]
     out[5] = (hc0 * v + hc1 * w) * p[P_INVD] - w  # TW-1 swivel rate
-    out[6] = (v - c * w) * p[P_INVR]  # thetadot_L
-    out[7] = (v + c * w) * p[P_INVR]  # thetadot_R
+    thl = (v - c * w) * p[P_INVR]  # thetadot_L
+    thr = (v + c * w) * p[P_INVR]  # thetadot_R
+    out[6] = thl
+    out[7] = thr
     out[8] = (gc0 * v + gc1 * w) * p[P_INVRC]  # thetadot_c
     n_l, n_r, n_c = loads(cs, sn, p)
     m00, m01, m11 = mass(gc0, gc1, hc0, hc1, p)
     b0, b1 = bias(gc0, gc1, hc0, hc1, v, w, p)
     q0, q1 = friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p)
+    # the torques the motors apply at the wheel rates (models/motor.py; ideal: u itself)
+    mode = p[P_MOTOR]
+    tl = applied(u[0], thl, mode, p, P_MBLK)
+    tr = applied(u[1], thr, mode, p, P_MBLK)
     # M udot = (g_L tau_L + g_R tau_R) / r + Q_f - c
-    f0 = (u[0] + u[1]) * p[P_INVR] + q0 - b0
-    f1 = c * (u[1] - u[0]) * p[P_INVR] + q1 - b1
+    f0 = (tl + tr) * p[P_INVR] + q0 - b0
+    f1 = c * (tr - tl) * p[P_INVR] + q1 - b1
     inv_det = 1.0 / (m00 * m11 - m01 * m01)
     out[3] = (m11 * f0 - m01 * f1) * inv_det
     out[4] = (m00 * f1 - m01 * f0) * inv_det
+
+
+@njit(cache=True)
+def deriv_one(x, u, p, out):  # pragma: no cover - compiled
+    _deriv_one(x, u, p, out, ideal_applied)
+
+
+@njit(cache=True)
+def deriv_one_dc(x, u, p, out):  # pragma: no cover - compiled
+    _deriv_one(x, u, p, out, dc_applied)
+
+
+@njit(cache=True, inline="always")
+def power_t(x, k, u, p):  # pragma: no cover - compiled
+    """Motor power ``tau_L thetadot_L + tau_R thetadot_R`` (W) of ideal motors at a stage whose
+    derivative is ``k`` (``k[6]``, ``k[7]`` the drive rates; the environment's stage power)."""
+    return u[0] * k[6] + u[1] * k[7]
+
+
+@njit(cache=True, inline="always")
+def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
+    """Power the DC motors draw (W): the electrical ``sum V i`` (models/motor.py) at the
+    drive rates of ``k``; :func:`power_t` where the mode code is ideal."""
+    mode = p[P_MOTOR]
+    el = dc_power(u[0], k[6], mode, p, P_MBLK) + dc_power(u[1], k[7], mode, p, P_MBLK)
+    return power_t(x, k, u, p) if mode == 0.0 else el
+
+
+@njit(cache=True)
+def k_motor(X, U, p, out):  # pragma: no cover - compiled
+    """Per row and motor: ``out[k, 0]`` joint rate (rad/s), ``out[k, 1]`` applied joint torque
+    (N·m), ``out[k, 2]`` current (A), ``out[k, 3]`` terminal voltage (V) (models/motor.py;
+    current and voltage those of a DC motor, also in ideal mode). ``out`` is ``(N, 4, 2)``."""
+    mode = p[P_MOTOR]
+    c = p[P_C]
+    for k in range(X.shape[0]):
+        v = X[k, 3]
+        w = X[k, 4]
+        for j in range(2):
+            wj = (v - c * w) * p[P_INVR] if j == 0 else (v + c * w) * p[P_INVR]
+            i, e = dc_current(U[k, j], wj, mode, p, P_MBLK)
+            out[k, 0, j] = wj
+            out[k, 1, j] = dc_applied(U[k, j], wj, mode, p, P_MBLK)
+            out[k, 2, j] = i
+            out[k, 3, j] = p[P_MBLK + M_R] * i + e  # V = R_w i + e
 
 
 @njit(cache=True)
@@ -227,3 +294,9 @@ def k_twist_pieces(S, V, p, bias_out, fric):  # pragma: no cover - compiled
 #: The model's batch kernels: the generic bodies of wheelgym.integrators with this robot's
 #: derivative, a row at a time.
 KERNELS = model_kernels(__name__, __file__, deriv_one, NX, NU)
+
+
+@functools.cache
+def dc_kernels() -> _integrators.ModelKernels:
+    """The batch kernels with DC motors (``k_*_dc``), built on first use."""
+    return model_kernels(__name__, __file__, deriv_one_dc, NX, NU, suffix="_dc")

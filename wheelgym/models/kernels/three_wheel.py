@@ -20,6 +20,10 @@ function reads the packed parameter array ``p`` of :meth:`ThreeWheelParams.pack`
 | ``deriv_block``     | the state derivative as a 12-tuple, branch-free (blocks)      |
 | ``deriv_one``       | the same into an array ``out`` (one state)                    |
 | ``power_t``         | motor power ``tau . qdot`` from a stage's derivative          |
+| ``*_dc``            | the same with DC motors (models/motor.py); ``power_t_dc`` the |
+|                     | electrical power ``V . i``; ``dc_kernels()`` their kernels    |
+| ``joint_rates``     | the six joint rates in motor order (TW-1)                     |
+| ``k_motor``         | joint rate, applied torque, current, voltage of each motor    |
 | ``KERNELS``         | the model's batch kernels (integrators.model_kernels);        |
 |                     | ``k_block`` its vectorised block step                         |
 
@@ -31,6 +35,7 @@ The derivative makes 8 sin/cos and 6 arctan calls: ``friction.sincos`` and ``fri
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -40,17 +45,23 @@ from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.integrators import fma, model_kernels
 from wheelgym.models import friction as _friction_module
+from wheelgym.models import motor as _motor_module
 from wheelgym.models.friction import atan, sgn_s, sincos
+from wheelgym.models.motor import M_R, MOTOR_NP, dc_applied, dc_current, dc_power, ideal_applied
 
-# kernels here inline integrators.rk4_inplace, integrators.rk4_block and friction.sincos/atan
-_numba_cache.guard(__file__, _integrators.__file__, _friction_module.__file__)
+# kernels here inline integrators.rk4_inplace, integrators.rk4_block, friction.sincos/atan and
+# the DC motor law of models/motor.py
+_numba_cache.guard(__file__, _integrators.__file__, _friction_module.__file__,
+                   _motor_module.__file__)
 
 __all__ = [
     "P_MB", "P_IB", "P_MW", "P_IWY", "P_IWZ", "P_R", "P_D", "P_A1X", "P_A1Y", "P_A2X", "P_A2Y",
     "P_A3X", "P_A3Y", "P_MUR", "P_MUP", "P_RHO", "P_BD", "P_BS", "P_KS", "P_G", "P_TDM",
-    "P_TSM", "P_KW", "P_KZ", "P_MT", "P_INVD", "P_INVR", "P_M0", "NP", "NX", "NU",
+    "P_TSM", "P_KW", "P_KZ", "P_MT", "P_INVD", "P_INVR", "P_M0", "P_MOTOR", "P_MDRV",
+    "P_MSTR", "NP", "NX", "NU", "joint_rates", "k_motor",
     "sincos", "atan", "sgn_s", "trig", "gh", "loads", "dot3", "jacobian_rows", "mass", "bias",
     "friction", "friction_jac_rest", "solve3", "deriv_block", "deriv_one", "power_t",
+    "deriv_block_dc", "deriv_one_dc", "power_t_dc", "dc_kernels",
     "k_psi_pieces", "k_twist_pieces", "KERNELS", "k_block",
 ]
 
@@ -59,7 +70,12 @@ __all__ = [
  P_MUP, P_RHO, P_BD, P_BS, P_KS, P_G, P_TDM, P_TSM, P_KW, P_KZ, P_MT, P_INVD, P_INVR,
  P_M0) = range(28)
 #: P_M0 .. P_M0 + 5: the constant part M_0 of M (upper triangle), see ThreeWheelParams.pack
-NP = P_M0 + 6  # length of the packed array
+#: P_MOTOR: the motor mode code (models/motor.py MODES: 0 ideal, 1 dc, 2 dc_voltage);
+#: P_MDRV, P_MSTR: the drive and steering motors' blocks (motor.pack_motor, offsets motor.M_*)
+P_MOTOR = P_M0 + 6
+P_MDRV = P_MOTOR + 1
+P_MSTR = P_MDRV + MOTOR_NP
+NP = P_MSTR + MOTOR_NP  # length of the packed array
 NX = 12  # state size
 NU = 6  # input size
 
@@ -260,27 +276,35 @@ def solve3(m, f0, f1, f2):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f):
+def _module_terms(cs, i, n_i, vx, vy, wz, tau_drive, tau_steer, p, m, f, applied):
     """Add module i's shares of M and of ``J^T tau + Q_f - c`` to ``m`` and ``f``; also return
-    its TW-1 joint rates ``(psidot_i, thetadot_i)``."""  # pragma: no cover - compiled
+    its TW-1 joint rates ``(psidot_i, thetadot_i)``. The motors apply the torque
+    ``applied(command, rate, mode, p, block)`` at these rates (models/motor.py:
+    ``ideal_applied``, the command itself, or ``dc_applied``, the DC motor's envelope)."""
+    # pragma: no cover - compiled
     g, h = gh(cs, i, p)
     gu = dot3(g, vx, vy, wz)
     hu = dot3(h, vx, vy, wz)
+    psid = fma(hu, p[P_INVD], -wz)  # TW-1 steering rate
+    thd = gu * p[P_INVR]  # TW-1 drive rate
+    mode = p[P_MOTOR]
     a = _mass_i(g, p)
     tb = _bias_i(gu, hu, wz, p)
     tq = _friction_i(gu, hu, wz, n_i, p)
-    tt = _jt_tau_i(tau_drive, tau_steer, p)
+    tt = _jt_tau_i(applied(tau_drive, thd, mode, p, P_MDRV),
+                   applied(tau_steer, psid, mode, p, P_MSTR), p)
     df = _assemble(g, h, tt[0] + tq[0] - tb[0], tt[1] + tq[1] - tb[1], tt[2] + tq[2] - tb[2])
     return ((m[0] + a[0], m[1] + a[1], m[2] + a[2], m[3] + a[3], m[4] + a[4], m[5] + a[5]),
             (f[0] + df[0], f[1] + df[1], f[2] + df[2]),
-            fma(hu, p[P_INVD], -wz),
-            gu * p[P_INVR])
+            psid,
+            thd)
 
 
 @njit(cache=True, inline="always")
-def deriv_block(x, u, p):  # pragma: no cover - compiled
-    """The state derivative as a 12-tuple. ``x``, ``u``, ``p`` are arrays or tuples read by
-    constant index only, so the block kernels (tuples, no branches) vectorise."""
+def _deriv(x, u, p, applied):  # pragma: no cover - compiled
+    """The state derivative as a 12-tuple with the motor law ``applied`` (see
+    :func:`_module_terms`). ``x``, ``u``, ``p`` are arrays or tuples read by constant index
+    only, so the block kernels (tuples, no branches) vectorise."""
     yaw = x[2]
     vx = x[3]
     vy = x[4]
@@ -291,13 +315,25 @@ def deriv_block(x, u, p):  # pragma: no cover - compiled
     # TW-3: M udot = J^T tau + Q_f - c; the platform's share, then each module's
     m = (p[P_M0], p[P_M0 + 1], p[P_M0 + 2], p[P_M0 + 3], p[P_M0 + 4], p[P_M0 + 5])
     f = (p[P_MB] * wz * vy, -p[P_MB] * wz * vx, 0.0)
-    m, f, psid1, thd1 = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f)
-    m, f, psid2, thd2 = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f)
-    m, f, psid3, thd3 = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f)
+    m, f, psid1, thd1 = _module_terms(cs, 0, n[0], vx, vy, wz, u[0], u[3], p, m, f, applied)
+    m, f, psid2, thd2 = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f, applied)
+    m, f, psid3, thd3 = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f, applied)
     a0, a1, a2 = solve3(m, f[0], f[1], f[2])
     # physics.md section 0 (three-wheel paper (15)-(16)), TW-3 and the TW-1 joint rates
     return (fma(cy, vx, -(sy * vy)), fma(sy, vx, cy * vy), wz, a0, a1, a2,
             psid1, psid2, psid3, thd1, thd2, thd3)
+
+
+@njit(cache=True, inline="always")
+def deriv_block(x, u, p):  # pragma: no cover - compiled
+    """The state derivative as a 12-tuple with ideal motors (the joints get ``u``)."""
+    return _deriv(x, u, p, ideal_applied)
+
+
+@njit(cache=True, inline="always")
+def deriv_block_dc(x, u, p):  # pragma: no cover - compiled
+    """The state derivative as a 12-tuple with DC motors (models/motor.py)."""
+    return _deriv(x, u, p, dc_applied)
 
 
 @njit(cache=True)
@@ -307,13 +343,67 @@ def deriv_one(x, u, p, out):  # pragma: no cover - compiled
         out[j] = d[j]
 
 
+@njit(cache=True)
+def deriv_one_dc(x, u, p, out):  # pragma: no cover - compiled
+    d = deriv_block_dc(x, u, p)
+    for j in range(12):
+        out[j] = d[j]
+
+
 @njit(cache=True, inline="always")
 def power_t(x, k, u, p):  # pragma: no cover - compiled
-    """Motor power ``tau . qdot`` (W) at a state whose derivative is ``k``: the derivative
-    holds the TW-1 joint rates (TW-5 order), ``k[9 + i]`` drive and ``k[6 + i]`` steering;
-    motor order [drive_1..3, steer_1..3]."""
+    """Motor power ``tau . qdot`` (W) of ideal motors at a state whose derivative is ``k``: the
+    derivative holds the TW-1 joint rates (TW-5 order), ``k[9 + i]`` drive and ``k[6 + i]``
+    steering; motor order [drive_1..3, steer_1..3]."""
     return fma(u[5], k[8], fma(u[4], k[7], fma(u[3], k[6], fma(
         u[2], k[11], fma(u[1], k[10], u[0] * k[9])))))
+
+
+@njit(cache=True, inline="always")
+def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
+    """Power the DC motors draw (W): the electrical power ``sum V i`` (models/motor.py) at the
+    joint rates of ``k`` (as :func:`power_t`), which the environments' energy integral then
+    accumulates; :func:`power_t` where the mode code is ideal."""
+    mech = power_t(x, k, u, p)
+    mode = p[P_MOTOR]
+    el = (dc_power(u[0], k[9], mode, p, P_MDRV) + dc_power(u[1], k[10], mode, p, P_MDRV)
+          + dc_power(u[2], k[11], mode, p, P_MDRV) + dc_power(u[3], k[6], mode, p, P_MSTR)
+          + dc_power(u[4], k[7], mode, p, P_MSTR) + dc_power(u[5], k[8], mode, p, P_MSTR))
+    return mech if mode == 0.0 else el
+
+
+@njit(cache=True, inline="always")
+def joint_rates(x, p):  # pragma: no cover - compiled
+    """The six joint rates (rad/s) in motor order, the bits of :func:`deriv_block`'s."""
+    cs = trig(x[6], x[7], x[8])
+    vx = x[3]
+    vy = x[4]
+    wz = x[5]
+    g, h = gh(cs, 0, p)
+    d1, s1 = dot3(g, vx, vy, wz) * p[P_INVR], fma(dot3(h, vx, vy, wz), p[P_INVD], -wz)
+    g, h = gh(cs, 1, p)
+    d2, s2 = dot3(g, vx, vy, wz) * p[P_INVR], fma(dot3(h, vx, vy, wz), p[P_INVD], -wz)
+    g, h = gh(cs, 2, p)
+    d3, s3 = dot3(g, vx, vy, wz) * p[P_INVR], fma(dot3(h, vx, vy, wz), p[P_INVD], -wz)
+    return d1, d2, d3, s1, s2, s3
+
+
+@njit(cache=True)
+def k_motor(X, U, p, out):  # pragma: no cover - compiled
+    """Per row and motor: ``out[k, 0]`` joint rate (rad/s), ``out[k, 1]`` applied joint torque
+    (N·m), ``out[k, 2]`` current (A) and ``out[k, 3]`` terminal voltage (V) of the DC motor
+    law (models/motor.py; the current and voltage are those a DC motor would have, also in
+    ideal mode, where the applied torque is the command). ``out`` is ``(N, 4, 6)``."""
+    mode = p[P_MOTOR]
+    for k in range(X.shape[0]):
+        w = joint_rates(X[k], p)
+        for j in range(6):
+            o = P_MDRV if j < 3 else P_MSTR
+            i, e = dc_current(U[k, j], w[j], mode, p, o)
+            out[k, 0, j] = w[j]
+            out[k, 1, j] = dc_applied(U[k, j], w[j], mode, p, o)
+            out[k, 2, j] = i
+            out[k, 3, j] = p[o + M_R] * i + e  # V = R_w i + e
 
 
 @njit(cache=True, inline="always")
@@ -366,8 +456,17 @@ def k_twist_pieces(PSI, V, p, bias_out, fric):  # pragma: no cover - compiled
 
 # ---------------------------------------------------------------------------- batch kernels
 #: The model's batch kernels: the generic bodies of wheelgym.integrators with this robot's
-#: derivative (vectorised blocks of integrators.LANES robots).
+#: derivative (vectorised blocks of integrators.LANES robots), ideal motors.
 KERNELS = model_kernels(__name__, __file__, deriv_one, NX, NU, deriv_block, power_t, NP)
+
+
+@functools.cache
+def dc_kernels() -> _integrators.ModelKernels:
+    """The batch kernels with DC motors (``deriv_one_dc``, ``deriv_block_dc``, stage power
+    ``power_t_dc``: the electrical power), named ``k_*_dc``; built on first use, so ideal-motor
+    users never compile them. ``dc_kernels().block`` is the DC twin of :data:`k_block`."""
+    return model_kernels(__name__, __file__, deriv_one_dc, NX, NU, deriv_block_dc, power_t_dc,
+                         NP, suffix="_dc")
 #: ``k_block(X, U, P, h, n, out, work, b0)``: one vectorised block with the motor work (J);
 #: the model's batch steps and the environments' step kernel all call this one function.
 k_block = KERNELS.block
