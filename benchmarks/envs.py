@@ -1,9 +1,12 @@
 """Steps per second of ``env.step`` for every wheelgym id and task vs Gymnasium's Pendulum-v1.
 
-Run: ``python benchmarks/envs.py [--steps 3000] [--repeats 5]``. Prints a Markdown table of the
-median time per step (us) and the ratio of steps/s to Pendulum-v1 measured in the same run
-(higher is faster), plus ``gym.make`` time once the compiled caches exist. Actions are sampled
-before timing; episodes that end are reset outside the timed region's count.
+Run: ``python benchmarks/envs.py [--steps 3000] [--repeats 5] [--robots ...] [--motor-only]``.
+Prints a Markdown table of the median time per step (us) and the ratio of steps/s to
+Pendulum-v1 measured in the same run (higher is faster), the cost of the DC motor model
+(``motor="dc"`` vs ``"ideal"``, goal task, torque mode, timed alternately in the same run;
+``--motor-only``: that table alone), plus ``gym.make`` time once the compiled caches exist.
+Actions are sampled before timing; episodes that end are reset outside the timed region's
+count.
 """
 
 from __future__ import annotations
@@ -94,12 +97,33 @@ def bench_rays(n: int = 2000) -> None:
           f"analytic numba kernel {t_nb * 1e6:.1f} us ({t_pm / t_nb:.0f}x)")
 
 
+def bench_motor(robots: list[str], steps: int, repeats: int) -> None:
+    """Goal task, torque mode: us/step with ``motor="dc"`` and ``"ideal"`` (timed alternately,
+    the same actions) and their ratio, for the robots with a motor model."""
+    print("| id | motor=ideal us/step | motor=dc us/step | dc / ideal |")
+    print("|---|---|---|---|")
+    for robot in robots:
+        if not wheelgym.envs.robots.get_spec(robot).has_dc_motors:
+            continue
+        dc = gym.make(env_id(robot), task="goal", action_mode="torque", motor="dc")
+        ideal = gym.make(env_id(robot), task="goal", action_mode="torque")
+        t_dc, t_id = time_steps(dc, steps, repeats, ref=ideal)
+        print(f"| {env_id(robot)} | {t_id * 1e6:.1f} | {t_dc * 1e6:.1f} | {t_dc / t_id:.2f}x |")
+        dc.close()
+        ideal.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--robots", nargs="*", default=None)
+    ap.add_argument("--motor-only", action="store_true",
+                    help="only the motor='dc' vs 'ideal' table")
     args = ap.parse_args()
+    if args.motor_only:
+        bench_motor(args.robots or available_robots(), args.steps, args.repeats)
+        return
     pend = gym.make("Pendulum-v1")
     print("Pendulum-v1 is timed alternately with each row (its us/step in the last column).\n")
     print("| id | task | action mode | us/step | steps/s | ratio vs Pendulum | target | "
@@ -129,6 +153,8 @@ def main() -> None:
                 t, t_ref = time_steps(env, args.steps, args.repeats, ref=pend)
                 print(f"| {env_id(robot)} | navigate, rays: {backend} | torque | {t * 1e6:.1f} "
                       f"| {1 / t:,.0f} | {t_ref / t:.2f}x | | {t_ref * 1e6:.1f} |")
+    print()
+    bench_motor(robots, args.steps, args.repeats)
     print()
     bench_rays()
     print()

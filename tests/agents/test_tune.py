@@ -106,10 +106,20 @@ def test_two_calls_on_one_storage_add_up_their_trials(tmp_path):
         tune(cfg, trials=1, **{**kw, "timesteps": 512})
 
 
-def _heartbeats(db) -> int:
-    """Rows of Optuna's heartbeat table in the SQLite storage ``db``."""
-    with sqlite3.connect(db) as con:
-        return con.execute("SELECT COUNT(*) FROM trial_heartbeats").fetchone()[0]
+def _running_with_heartbeat(db) -> bool:
+    """Whether the SQLite storage ``db`` holds a RUNNING trial whose first heartbeat is written
+    (a trial killed before that has none, and the heartbeat cannot tell it is stale); read
+    only, so it never touches the schema the worker is creating."""
+    try:
+        con = sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0)
+        try:
+            running = con.execute("SELECT COUNT(*) FROM trials WHERE state = 'RUNNING'")
+            beats = con.execute("SELECT COUNT(*) FROM trial_heartbeats")
+            return running.fetchone()[0] > 0 and beats.fetchone()[0] > 0
+        finally:
+            con.close()
+    except sqlite3.Error:  # not created yet, or locked for a moment
+        return False
 
 
 def test_a_killed_workers_trial_is_marked_failed(tmp_path, monkeypatch):
@@ -124,16 +134,10 @@ def test_a_killed_workers_trial_is_marked_failed(tmp_path, monkeypatch):
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
-            if db.is_file():
-                try:
-                    study = optuna.load_study(study_name="k", storage=f"sqlite:///{db}")
-                    # RUNNING and its first heartbeat written (a trial killed before that has
-                    # none, and the heartbeat cannot tell it is stale)
-                    if study.trials and study.trials[0].state.name == "RUNNING" and \
-                            _heartbeats(db):
-                        break
-                except (KeyError, sqlite3.OperationalError):
-                    pass
+            # read-only SQL, not optuna.load_study: a second process creating Optuna's schema
+            # while the worker does races it (UNIQUE constraint on alembic_version)
+            if db.is_file() and _running_with_heartbeat(db):
+                break
             time.sleep(0.5)
         else:
             raise AssertionError(f"the trial did not start (rc {proc.poll()})")

@@ -142,6 +142,12 @@ def algo_kwargs(config: TrainConfig, n_actions: int | None = None) -> dict[str, 
         v = kw.get(key)
         if isinstance(v, str):  # "lin_<x>", validated by the loader
             kw[key] = _linear(float(v.split("_", 1)[1]))
+    if isinstance(kw.get("replay_buffer_class"), str):  # by name (config.REPLAY_BUFFERS)
+        import stable_baselines3 as sb3
+        from stable_baselines3.common import buffers
+
+        name = kw["replay_buffer_class"]
+        kw["replay_buffer_class"] = getattr(sb3, name, None) or getattr(buffers, name)
     if isinstance(kw.get("train_freq"), list):
         kw["train_freq"] = tuple(kw["train_freq"])
     pk = dict(kw.get("policy_kwargs", {}))

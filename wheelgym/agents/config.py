@@ -253,7 +253,7 @@ def _normalize(v: Any) -> bool | dict:
 # Keys of the RL Zoo block that are not algorithm keyword arguments (``policy_kwargs`` is added
 # per algorithm, from its policy class).
 _ZOO_KEYS: dict[str, Any] = {
-    "policy": _choice("MlpPolicy"),
+    "policy": _choice("MlpPolicy", "MultiInputPolicy"),  # Dict observations: goal_conditioned
     "n_envs": _int(1),
     "n_timesteps": _int(1),
     "normalize": _normalize,
@@ -308,6 +308,10 @@ _LIMITS: dict[str, Any] = {
 }
 _ALGO_LIMITS: dict[str, dict[str, Any]] = {"ppo": {"n_steps": _int(2), "batch_size": _int(2)}}
 # Policy arguments written in a plain form of our own instead of their annotated type.
+#: Replay buffer classes a config may name (``replay_buffer_class``; off-policy algorithms).
+REPLAY_BUFFERS: tuple[str, ...] = ("ReplayBuffer", "DictReplayBuffer", "HerReplayBuffer")
+#: Algorithm arguments written in a plain form of our own (class-typed ones, by name).
+_ALGO_PLAIN_FORMS: dict[str, Any] = {"replay_buffer_class": _choice(*REPLAY_BUFFERS)}
 _PLAIN_FORMS: dict[str, Any] = {
     "net_arch": _net_arch,
     "activation_fn": _choice(*ACTIVATIONS),  # torch.nn class by name
@@ -450,7 +454,7 @@ def _algo_table(algo: str) -> dict[str, Any]:
     cls = getattr(sb3, algo.upper())
     limits = {**_LIMITS, **_ALGO_LIMITS.get(algo, {})}
     table = _signature_table(cls.__init__, _SUPPLIED | _NOT_EXPOSED.get(algo, frozenset()),
-                             limits)
+                             limits, _ALGO_PLAIN_FORMS)
     policy_table = _signature_table(cls.policy_aliases["MlpPolicy"].__init__, _POLICY_SUPPLIED,
                                     limits, _PLAIN_FORMS)
 

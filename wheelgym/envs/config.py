@@ -24,12 +24,14 @@ from typing import Any
 
 import numpy as np
 
+from wheelgym.envs.actuator import MAX_ACTION_DELAY
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
 from wheelgym.integrators import n_substeps
 from wheelgym.registration import DEFAULT_HORIZON
 from wheelgym.tasks.tasks import TASKS
 
-__all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "signature_with"]
+__all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "MOTORS",
+           "signature_with"]
 
 #: Render modes of the single environment (the vector env offers ``rgb_array`` only).
 RENDER_MODES = ("human", "rgb_array")
@@ -41,6 +43,8 @@ MAX_CTRL_DT = 1.0
 #: one robot, so this caps one step near 10 ms (the default is 25-40 substeps; 1e-9 s took
 #: 25 s a step).
 MAX_SUBSTEPS = 10_000
+#: Motor models of the ``motor`` keyword (``wheelgym.models.motor``).
+MOTORS = ("ideal", "dc")
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 
@@ -82,6 +86,9 @@ def _check_randomize(spec: RobotSpec, randomize: Any) -> dict[str, tuple[float, 
         raise TypeError(f"randomize must be a dict, True or None, got {randomize!r}")
     out = {}
     for k, v in randomize.items():
+        if k == "action_delay":
+            out[k] = _check_delay_range(v)
+            continue
         if k not in spec.randomize:
             raise ValueError(
                 f"unknown randomize key {k!r} for {spec.name}; valid keys: "
@@ -102,6 +109,43 @@ def _check_randomize(spec: RobotSpec, randomize: Any) -> dict[str, tuple[float, 
             raise ValueError(f"randomize[{k!r}] relative factors must be > 0, got {v!r}")
         out[k] = (lo, hi)
     return out
+
+
+def _check_motor(spec: RobotSpec, motor: Any, params: Mapping[str, Any],
+                 randomize: Mapping[str, Any]) -> None:
+    """``motor`` is one of :data:`MOTORS`, ``"dc"`` only on a robot with motors; the motor mode
+    is this keyword's, not a ``params`` entry; ``randomize["motor"]`` needs DC motors."""
+    if not isinstance(motor, str) or motor not in MOTORS:
+        raise ValueError(f"motor must be one of {list(MOTORS)}, got {motor!r}")
+    if motor != "ideal" and not spec.has_dc_motors:
+        raise ValueError(f"motor={motor!r}: {spec.name} has no motor model (kinematic inputs); "
+                         f"use motor='ideal'")
+    if "motor" in params:
+        raise ValueError("params['motor']: choose the motor model with the motor= keyword")
+    if "motor" in randomize and motor == "ideal":
+        raise ValueError("randomize['motor'] draws DC motor parameters, which ideal motors do "
+                         "not use (nothing would change); pass motor='dc'")
+
+
+def _check_delay(name: str, value: Any) -> int:
+    """``value`` as an int in [0, :data:`MAX_ACTION_DELAY`] (control steps)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int number of control steps, got {value!r}")
+    if not 0 <= value <= MAX_ACTION_DELAY:
+        raise ValueError(f"{name} must be in [0, {MAX_ACTION_DELAY}] control steps, "
+                         f"got {value!r}")
+    return int(value)
+
+
+def _check_delay_range(v: Any) -> tuple[int, int]:
+    """``randomize["action_delay"]`` as ints ``(low, high)``, 0 <= low <= high <= max."""
+    name = "randomize['action_delay']"
+    if np.ndim(v) != 1 or len(v) != 2:
+        raise TypeError(f"{name} must be an int range (low, high), got {v!r}")
+    lo, hi = (_check_delay(name, x) for x in v)
+    if lo > hi:
+        raise ValueError(f"{name} must have low <= high, got {v!r}")
+    return lo, hi
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,6 +173,15 @@ class EnvConfig:
             shipped map's name (``wheelgym.world.MAPS``) or a map file's path (ROS map_server
             YAML or a YAML of shapes; :func:`wheelgym.world.load_map`).
         horizon: track: reference steps evaluated at a reset by small batches.
+        goal_conditioned: goal and navigate: a ``Dict`` observation (``observation``,
+            ``achieved_goal``, ``desired_goal``) and ``compute_reward`` for HER.
+        action_delay: control steps between an action and its effect (0 to
+            :data:`~wheelgym.envs.actuator.MAX_ACTION_DELAY`).
+        actuator_lag: time constant (s) of the first-order lag on the applied inputs
+            (>= 0; 0: off).
+        motor: the dynamic robots' motors: ``"ideal"`` (the joints get the commanded torque)
+            or ``"dc"`` (DC motors with back-EMF, current and voltage limits,
+            ``wheelgym.models.motor``); one of :data:`MOTORS`.
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -145,6 +198,10 @@ class EnvConfig:
     range_backend: str = "analytic"
     arena: str | os.PathLike | None = None
     horizon: int = DEFAULT_HORIZON
+    goal_conditioned: bool = False
+    action_delay: int = 0
+    actuator_lag: float = 0.0
+    motor: str = "ideal"
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -187,6 +244,9 @@ class EnvConfig:
         if isinstance(h, bool) or not isinstance(h, (int, np.integer)) or h < 1:
             raise ValueError(f"horizon must be a positive int, got {h!r}")
         put("horizon", int(h))
+        put("action_delay", _check_delay("action_delay", self.action_delay))
+        put("actuator_lag", _check_number("actuator_lag", self.actuator_lag, 0.0))
+        _check_motor(spec, self.motor, self.params, self.randomize)
         if self.reward_weights is not None and not isinstance(self.reward_weights, Mapping):
             raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
         if self.task != "navigate" and self.range_backend != "analytic":
@@ -199,6 +259,12 @@ class EnvConfig:
                 raise ValueError("arena applies to task='navigate' only")
             put("arena", os.fspath(self.arena))  # (the task loads it: one-line errors)
         # (navigate's sensor checks the backend's name, listing the valid ones)
+        if not isinstance(self.goal_conditioned, (bool, np.bool_)):
+            raise TypeError(f"goal_conditioned must be a bool, got {self.goal_conditioned!r}")
+        put("goal_conditioned", bool(self.goal_conditioned))
+        if self.goal_conditioned and self.task not in ("goal", "navigate"):
+            raise ValueError(f"goal_conditioned applies to task='goal' or 'navigate' only, "
+                             f"got task={self.task!r}")
 
     def _put(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from wheelgym.envs._dispatch import FasterKernel
+from wheelgym.envs.actuator import k_delay, k_lag
 from wheelgym.envs.config import MAX_CTRL_DT, MAX_SUBSTEPS, EnvConfig
 from wheelgym.envs.robots import RobotSpec, get_spec
 from wheelgym.envs.robots.body import (
@@ -51,12 +52,25 @@ __all__ = ["WheelCore", "EnvConfig", "InfoKey", "INFO_KEYS", "DEFAULT_HORIZON", 
            "MAX_SUBSTEPS"]
 
 
+@numba.njit(cache=True)
+def k_step_power(B, col, e0, inv_dt, out):  # pragma: no cover - compiled
+    """``out = (E - e0) * inv_dt`` (the step's mean motor power) with ``E = B[:, col]`` (the
+    energy), then ``e0 = E``: one call (three NumPy operations cost ~10% of a single env's
+    step)."""
+    for i in range(B.shape[0]):
+        e = B[i, col]
+        out[i] = (e - e0[i]) * inv_dt
+        e0[i] = e
+
+
 class InfoKey(NamedTuple):
     """One key of every step's ``info`` and where the core keeps it.
 
     ``block``: ``"B"`` (the float block: ``column`` is its ``layout`` entry; ``motors``: only
     the first ``n_motor`` columns), ``"F"`` (the flag block: ``column`` its index; ``negate``:
-    reported as ``not``) or ``"terms"`` (the weighted reward terms, a dict by name)."""
+    reported as ``not``), ``"core"`` (a number per row in the core's ``(N,)`` array attribute
+    ``column``, :attr:`WheelCore.info_core`) or ``"terms"`` (the weighted reward terms, a dict
+    by name)."""
 
     name: str
     block: str
@@ -74,6 +88,7 @@ INFO_KEYS: tuple[InfoKey, ...] = (
     InfoKey("joint_velocity", "B", "jv", motors=True),
     InfoKey("tracking_error", "B", "err"),
     InfoKey("energy", "B", "energy"),
+    InfoKey("electrical_power", "core", "pel"),
     InfoKey("internal_force", "B", "xf"),
     InfoKey("saturated", "F", F_SAT),
     InfoKey("is_success", "F", F_SUCC),
@@ -122,14 +137,18 @@ class WheelCore:
         self.num = N = int(num)
         self.task_name = task = cfg.task
         self.action_mode = mode = cfg.action_mode
-        self.model = spec.make_model(cfg.params, mode)
+        #: DC motors (``motor="dc"``): the model's DC law and electrical power in the step.
+        self.dc = cfg.motor != "ideal"
+        self.model = spec.make_model(
+            {**cfg.params, "motor": cfg.motor} if self.dc else cfg.params, mode)
         self.base_params = self.model.params
         self.dt = cfg.ctrl_dt
         self.n_sub = cfg.n_substeps
         self.h = self.dt / self.n_sub
         self._stiff_scale: float | None = None
         self._check_stable(self.base_params, "params")
-        self.randomize = self._check_randomize(cfg.randomize)
+        self.randomize = self._check_randomize(
+            {g: r for g, r in cfg.randomize.items() if g != "action_delay"})
         self.obs_noise = cfg.obs_noise
         self.horizon = cfg.horizon
 
@@ -141,7 +160,8 @@ class WheelCore:
             from wheelgym.control.controllers import TwistController
 
             # deadbeat twist loop at this control period (controllers.py module docstring)
-            self.controller = TwistController(self.model, ctrl_dt=self.dt)
+            # (SkidSteer: PI, one integrator per row, zeroed at the row's reset)
+            self.controller = TwistController(self.model, ctrl_dt=self.dt, rows=N)
             self._bind_controller()
         m = self.model.input_dim
         nx = self.model.state_dim
@@ -156,8 +176,7 @@ class WheelCore:
         # starts numba's threads (read from the config: asking numba starts them)
         #: Whether this batch uses numba's threads (the step kernel, the goal task's kernel).
         self.threaded = N >= PAR_MIN_ROWS and numba.config.NUMBA_NUM_THREADS > 1
-        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if self.threaded \
-            else spec.k_env_step
+        self._bind_step()
 
         # per-row state
         self.X = np.zeros((N, nx))
@@ -169,6 +188,7 @@ class WheelCore:
         self.m = m
         self.LH = np.tile(np.concatenate([lo, hi]), (N, 1))
         self.A = np.zeros((N, self.action_dim))  # the normalised actions' shape
+        self._init_actuator()
         # one float block and one flag block per row (few arrays: each array argument of a
         # compiled call costs ~0.25 us); the named attributes are views into them
         lay = layout(m, nf)
@@ -176,6 +196,13 @@ class WheelCore:
         self.B = np.zeros((N, lay["width"]))
         self.F = np.zeros((N, 5), dtype=np.bool_)
         self.terms = np.zeros((N, len(TASKS[task].columns)))
+        #: Mean motor power of each row's last step (W; ``info["electrical_power"]``): the
+        #: step's increment of ``energy`` over ``ctrl_dt`` (0 at a reset); ``_e0`` the energy
+        #: at the end of the previous step (0 after a reset)
+        #: before the step.
+        self.pel = np.zeros(N)
+        self._e0 = np.zeros(N)
+        self._inv_dt = 1.0 / self.dt
         self._bind_views()
         self.ok[:] = True
         self.steps = np.zeros(N, dtype=np.int64)  # control steps since each row's reset
@@ -198,7 +225,8 @@ class WheelCore:
     #: or compiled callables): a copy drops them and rebuilds them on its own blocks.
     _DERIVED = ("LO", "HI", "U", "jv", "energy", "eff", "pose", "twist", "xf", "reward", "err",
                 "feat", "sat", "ok", "term", "succ", "coll", "info_buffers", "info_vectors",
-                "info_numbers", "info_flags", "_k_step", "_ctl_kernel", "_ctl_args")
+                "info_numbers", "info_flags", "_k_step", "_ctl_kernel", "_ctl_args",
+                "_k_serial", "info_core")
 
     def _bind_views(self) -> None:
         """The named views into the blocks (one compiled call writes a whole row)."""
@@ -233,6 +261,17 @@ class WheelCore:
         self.info_numbers = tuple((n, self.B[:, col]) for n, col in floats
                                   if not isinstance(col, slice))
         self.info_flags = tuple((n, self.F[:, col], neg) for n, col, neg in flags)
+        #: INFO_KEYS' ``"core"`` entries: ``(name, (N,) array)`` in table order.
+        self.info_core = tuple((k.name, getattr(self, str(k.column))) for k in INFO_KEYS
+                               if k.block == "core")
+
+    def _bind_step(self) -> None:
+        """The step kernels of the motor model (``spec.step_kernels``): ``_k_serial`` and
+        ``_k_step`` (for large batches the faster, timed in use, of the serial and the
+        threaded kernel)."""
+        ks, kp = self.spec.step_kernels(self.dc)
+        self._k_serial = ks
+        self._k_step = FasterKernel(ks, kp) if self.threaded else ks
 
     def info_columns(self) -> tuple[tuple[tuple[str, slice | int], ...],
                                     tuple[tuple[str, int, bool], ...]]:
@@ -263,10 +302,9 @@ class WheelCore:
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        spec = self.spec = get_spec(state["spec"])
+        self.spec = get_spec(state["spec"])
         self._bind_views()
-        self._k_step = FasterKernel(spec.k_env_step, spec.k_env_step_par) if self.threaded \
-            else spec.k_env_step
+        self._bind_step()
         if self._velocity:
             self._bind_controller(buffers=False)
 
@@ -283,6 +321,39 @@ class WheelCore:
         self._anorm = np.zeros((N, self.model.input_dim))
         self._csat = np.zeros(N, dtype=np.bool_)
         self._clipped = np.zeros(N, dtype=np.bool_)
+
+    # ------------------------------------------------------------------ delay and lag
+    def _init_actuator(self) -> None:
+        """State of ``action_delay`` (per-row ring buffers of the normalised actions,
+        ``wheelgym.envs.actuator``) and ``actuator_lag`` (the filtered normalised inputs).
+        ``randomize["action_delay"] = (lo, hi)`` replaces ``action_delay``: the buffers hold
+        ``hi`` steps and each row reads its own delay, drawn at its reset."""
+        cfg, N = self.config, self.num
+        drawn = cfg.randomize.get("action_delay")
+        self._delay_range: tuple[int, int] | None = drawn
+        K = cfg.action_delay if drawn is None else drawn[1]
+        #: Each row's action delay (control steps).
+        self.delays = np.full(N, cfg.action_delay if drawn is None else drawn[0],
+                              dtype=np.int64)
+        self._delay = K > 0
+        self._dbuf = np.zeros((N, K + 1, self.action_dim))
+        self._dhead = np.zeros(1, dtype=np.int64)
+        self._da = np.zeros((N, self.action_dim))
+        T = cfg.actuator_lag
+        self._lag = T > 0
+        self._lag_alpha = float(-np.expm1(-self.dt / T)) if T > 0 else 1.0
+        self._lag_u = np.zeros((N, self.m))
+        self._lag_sat = np.zeros(N, dtype=np.bool_)
+        self._act_fx = self._delay or self._lag or drawn is not None
+
+    def _reset_actuator(self, idx: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
+        """Rows ``idx``: draw the delay (``randomize``), zero the buffers and the lag."""
+        if self._delay_range is not None:
+            lo, hi = self._delay_range
+            for i in idx:
+                self.delays[i] = rngs[i].integers(lo, hi + 1)
+        self._dbuf[idx] = 0.0
+        self._lag_u[idx] = 0.0
 
     # ------------------------------------------------------------------ validation
     def _check_randomize(self, ranges: dict[str, tuple[float, float]]
@@ -410,6 +481,8 @@ class WheelCore:
         if self.randomize:  # (without, every row keeps the base parameters it was built with)
             for i in idx:
                 self._draw_params(int(i), rngs[i])
+        if self._act_fx:  # action delay / actuator lag: after the parameter draws
+            self._reset_actuator(idx, rngs)
         poses = self.task.reset_rows(idx, rngs, opts)
         if self.randomize:  # the start state may depend on each row's drawn parameters
             for n, i in enumerate(idx):
@@ -417,6 +490,8 @@ class WheelCore:
         else:
             self.X[idx] = self.spec.initial_state(poses, self.base_params)
         self.steps[idx] = 0
+        if self._velocity:
+            self.controller.reset_rows(idx)  # the twist loop's integrators (SkidSteer)
         # features at the start state: a zero-substep pass of the step kernel on the reset
         # rows' copies of the blocks (a partial reset costs its rows only), which writes pose,
         # twist, features and joint rates; then no torque, effort, work or internal force yet,
@@ -427,7 +502,7 @@ class WheelCore:
         lay = self._lay
         Bs[:, lay["energy"]] = 0.0  # the pass adds no work
         A0 = np.zeros((idx.size, self.m))
-        self.spec.k_env_step(Xs, A0, self.LH[idx], self.P[idx], self.h, 0, Xs.copy(), Bs, Fs)
+        self._k_serial(Xs, A0, self.LH[idx], self.P[idx], self.h, 0, Xs.copy(), Bs, Fs)
         Bs[:, lay["U"]] = 0.0
         Bs[:, lay["eff"]] = 0.0
         Bs[:, lay["xf"]] = 0.0
@@ -435,6 +510,8 @@ class WheelCore:
         Fs[:, F_OK] = True
         self.B[idx] = Bs
         self.F[idx] = Fs
+        self.pel[idx] = 0.0
+        self._e0[idx] = 0.0
         self.task.evaluate(idx)
         self._noise(idx)
         return self.obs
@@ -477,6 +554,10 @@ class WheelCore:
             a = a.astype(np.float64, copy=False)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
+        if self._delay:  # action_delay: the action of delays[i] steps ago (zeros at first)
+            if not k_delay(a, self._dbuf, self._dhead, self.delays, self._da):
+                raise ValueError("action must be finite (got NaN or inf)")
+            a = self._da
         if self._velocity:
             if not k_twist_command(a, self.twist_max, self._cmd, self._clipped):
                 raise ValueError("action must be finite (got NaN or inf)")
@@ -485,13 +566,20 @@ class WheelCore:
             A = self._anorm
         else:
             A = a
+        if self._lag:  # actuator_lag: the filtered inputs
+            if not k_lag(A, self._lag_u, self._lag_alpha, self._lag_sat):
+                raise ValueError("action must be finite (got NaN or inf)")
+            A = self._lag_u
         if not self._k_step(self.X, A, self.LH, self.P, self.h, self.n_sub, self.Xo, self.B,
                             self.F):
             raise ValueError("action must be finite (got NaN or inf)")
+        k_step_power(self.B, self._lay["energy"], self._e0, self._inv_dt, self.pel)
         if self._track:
             self.task.advance()
         if self._velocity:
             k_or_flags(self.F, self._csat, self._clipped)
+        if self._lag:  # a clipped command saturates (the filtered input never exceeds 1)
+            k_or_flags(self.F, self._lag_sat, self._lag_sat)
         self.X, self.Xo = self.Xo, self.X
         k_add1(self.steps)  # steps += 1 (NumPy takes 1.4 us on a short array, this 0.24 us)
         self.task.evaluate()

@@ -12,7 +12,7 @@ from gymnasium import spaces
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import WheelCore
 
-__all__ = ["WheelEnv"]
+__all__ = ["WheelEnv", "goal_space"]
 
 _F32 = np.dtype(np.float32)
 _F64 = np.dtype(np.float64)
@@ -91,7 +91,8 @@ on that reset only (autoresets draw as usual).
 ## Episode End
 
 Terminated on success (goal: within 0.1 m and 0.2 rad; navigate: within 0.25 m), overspeed
-(the models have no motor back-EMF, so speed is capped by this sanity limit), lost (track),
+(with the default ideal motors nothing caps the speed but this sanity limit; ``motor="dc"``
+adds the back-EMF, which caps it near the motors' no-load speed), lost (track),
 collision (navigate), or a diverged integration (``info["numerical_failure"] = True``: the
 state turned non-finite or a twist entry exceeded 1e3 m/s or rad/s,
 ``robots.body.SPEED_BOUND``; the state, the observation and the reward then stay at the last
@@ -129,15 +130,33 @@ there once (the vector env takes the same).
 |                |                   | of a ROS map_server YAML or a YAML of shapes            |
 | horizon        | 500               | track: steps of the reference the single env evaluates  |
 |                |                   | at a reset (at most 4096; it moves on by windows past)  |
+| goal_conditioned | False           | goal, navigate: ``Dict`` observation and                |
+|                |                   | ``compute_reward`` for HER ("Goal-conditioned")         |
+| action_delay   | 0                 | control steps (0-50) before an action acts; the first k |
+|                |                   | steps of an episode apply the zero action (velocity     |
+|                |                   | mode: the twist command is delayed)                     |
+| actuator_lag   | 0.0               | time constant T (s) of a first-order lag on the applied |
+|                |                   | torques (kinematic robots: inputs); 0 = off; discrete   |
+|                |                   | at the control step: u += (1 - exp(-ctrl_dt / T))      |
+|                |                   | (u_cmd - u), held over the step's substeps              |
+| motor          | "ideal"           | dynamic robots' motors: "ideal" (the joint gets the     |
+|                |                   | commanded torque) or "dc" (DC motor with back-EMF and   |
+|                |                   | current/voltage limits inside each RK4 stage,           |
+|                |                   | ``wheelgym.models.motor``; parameters in ``params``)    |
 
 ``randomize`` groups (each robot supports those its parameters have): "mass", "inertia",
-"friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit". A value is a relative
+"friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit", "motor" (``motor="dc"``
+only: torque constants, winding resistances and the supply voltage). A value is a relative
 factor range ``(low, high)`` (or a fraction f meaning ``(1 - f, 1 + f)``) multiplying every
 parameter of the group; ``x_icr`` takes an absolute range (m). ``reset`` returns the draws in
 ``info["params"]``. The velocity mode's controller keeps the nominal parameters, and so
 does the scale of the Unicycle's action: in ``WheelSpeedHeadingRate`` it drives at the drawn
 radius times the wheel speed; in ``VehicleSpeedHeadingRate`` the radius acts only through the
 wheel-speed limit, and a range too narrow to reach it raises ``ValueError``.
+Every robot also takes the group "action_delay": an int range ``(low, high)`` of delays
+(control steps, inclusive) drawn uniformly per episode from ``np_random`` after the parameter
+groups; it replaces ``action_delay`` (each row's delay: ``core.delays``). The delay buffer and
+the lag filter start from the zero action at each reset.
 
 The parameters at every corner of the ranges (each group at its low or its high end) must be
 valid and stable at ``sim_dt``, else the constructor raises ``ValueError`` naming the
@@ -155,10 +174,15 @@ and listing the valid choices or range.
 |-------------------|------------|--------------------------------------------------------------|
 | pose              | m, m, rad  | (x, y, yaw) in W (yaw unwrapped)                             |
 | twist             | m/s, rad/s | (vx, vy, wz) in B                                            |
-| motor_torque      | N·m        | applied motor torques after clipping (empty: kinematic)      |
+| motor_torque      | N·m        | commanded motor torques after clipping (empty: kinematic);   |
+|                   |            | ``motor="dc"``: the command, before the motor's envelope     |
 | joint_velocity    | rad/s      | motor joint rates at the end of the step (empty: kinematic)  |
 | tracking_error    | m          | distance to the goal or to the reference                     |
-| energy            | J          | cumulative motor work, RK4 integral of tau . qdot            |
+| energy            | J          | cumulative motor work, RK4 integral of tau . qdot;           |
+|                   |            | ``motor="dc"``: of the electrical power sum V i              |
+| electrical_power  | W          | mean power the motors drew over the step: its ``energy``     |
+|                   |            | increment / ctrl_dt (ideal motors: mean of tau . qdot); 0    |
+|                   |            | at a reset                                                   |
 | internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0)    |
 | saturated         | bool       | an action or a controller torque was clipped                 |
 | is_success        | bool       | goal reached; track: within 5 cm of the reference            |
@@ -166,6 +190,33 @@ and listing the valid choices or range.
 | reward_terms      | dict       | weighted reward terms                                        |
 
 Reset info adds ``params`` (drawn values) and ``task`` (goal pose or reference kind).
+With ``goal_conditioned=True`` the step and reset infos add ``prev_achieved_goal``,
+``reward_goal_free``, ``success_allowed`` and ``terminated_goal_free`` ("Goal-conditioned").
+
+## Goal-conditioned
+
+``goal_conditioned=True`` (goal and navigate) makes the observation a ``Dict`` in
+Gymnasium-Robotics' convention, so SB3's ``HerReplayBuffer`` works unchanged:
+
+| key           | dtype   | entries                                                        |
+|---------------|---------|----------------------------------------------------------------|
+| observation   | float32 | the observation above (goal in the body frame included)        |
+| achieved_goal | float64 | goal: x, y, cos yaw, sin yaw of the robot (W; not clipped,     |
+|               |         | not noised); navigate: x, y                                    |
+| desired_goal  | float64 | the goal's, in the same form                                   |
+
+(cos, sin) keeps the goal space continuous, so the Euclidean distance between goals is
+meaningful; positions lie within +-1e4 m (``tasks.GOAL_POS_BOUND``).
+``compute_reward(achieved_goal, desired_goal, info)`` is the step reward for any desired goal,
+batched over leading axes (``info``: one step info, or a list/array of them, or a vector
+info): progress from ``info["prev_achieved_goal"]`` (the achieved goal before the step),
+heading (goal only) and success (``info["success_allowed"]``: no failure or collision) are
+recomputed; the goal-independent terms come summed in ``info["reward_goal_free"]`` (effort,
+internal_force, overspeed, collision; navigate: heading too, which compares with the env's goal
+yaw). With the true goal it equals the step reward to rounding (~1e-15).
+``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
+(overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
+(reward 0, see Episode End) are outside this.
 
 ## Copies
 
@@ -177,6 +228,14 @@ renderer is not copied (a copy opens its own on ``render()``).
 
 * v0: initial version.
 """
+
+
+def goal_space(core: WheelCore, obs_space: spaces.Box) -> spaces.Dict:
+    """The ``goal_conditioned`` observation space of ``core``'s task (one env)."""
+    high = core.task.goal_high()
+    return spaces.Dict({"observation": obs_space,
+                        "achieved_goal": spaces.Box(-high, high, dtype=np.float64),
+                        "desired_goal": spaces.Box(-high, high, dtype=np.float64)})
 
 
 class WheelEnv(gym.Env):
@@ -200,6 +259,13 @@ class WheelEnv(gym.Env):
         self.dt = c.dt
         self.action_space = spaces.Box(-1.0, 1.0, (c.action_dim,), np.float32)
         self.observation_space = spaces.Box(c.obs_low, c.obs_high, dtype=np.float32)
+        self._gc = config.goal_conditioned
+        if self._gc:
+            self.observation_space = goal_space(c, self.observation_space)
+            # only a goal-conditioned env has them (checkers detect a GoalEnv by them)
+            self.compute_reward = self._compute_reward
+            self.compute_terminated = self._compute_terminated
+            self.compute_truncated = self._compute_truncated
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / c.dt))}
         self._names = c.task.names
         self._tidx = [int(k) for k in c.task.term_index]
@@ -228,6 +294,9 @@ class WheelEnv(gym.Env):
         self._started = True
         self._ended = False
         info = self._info(True)
+        if self._gc:
+            obs = self._goal_obs(obs)
+            info.update(self._goal_info(c.task.achieved_goal(), True))
         info["params"] = dict(c.drawn[0])
         info["task"] = self._task_info()
         if self._renderer is not None:
@@ -247,8 +316,11 @@ class WheelEnv(gym.Env):
         if a.shape != self._shape:
             raise ValueError(f"action must have shape {self._shape}, got {np.shape(action)}")
         self._A[0] = a
+        prev = self.core.task.achieved_goal() if self._gc else None
         obs, reward, term, _ = self.core.step(self._A)
         info = self._info(False)
+        if self._gc:
+            info.update(self._goal_info(prev, False))
         if self._ended:  # beyond the end (class docstring): reward 0, still terminated
             if not self._warned_ended:
                 gym.logger.warn(
@@ -262,7 +334,50 @@ class WheelEnv(gym.Env):
             self._ended = t
         if self.render_mode == "human":
             self.render()
+        if self._gc:
+            return self._goal_obs(obs[0].copy()), r, t, False, info
         return obs[0].copy(), r, t, False, info
+
+    # ------------------------------------------------------------------ goal-conditioned
+    def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        task = self.core.task
+        return {"observation": obs, "achieved_goal": task.achieved_goal()[0],
+                "desired_goal": task.desired_goal()[0]}
+
+    def _goal_info(self, prev: np.ndarray, at_reset: bool) -> dict[str, Any]:
+        g = self.core.task.goal_info(prev, np.zeros(1, dtype=np.int64) if at_reset else None)
+        return {"prev_achieved_goal": g["prev_achieved_goal"][0],
+                "reward_goal_free": g["reward_goal_free"].item(0),
+                "success_allowed": bool(g["success_allowed"][0]),
+                "terminated_goal_free": bool(g["terminated_goal_free"][0])}
+
+    def _goal_task(self):
+        return self.core.task
+
+    def _compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                       info: Any) -> np.ndarray | float:
+        """The step reward had the goal been ``desired_goal`` (``goal_conditioned``), batched
+        over leading axes: ``info`` is one step's info, or a list or array of them (one per
+        goal, as SB3's ``HerReplayBuffer`` passes). With the true goal it equals the step's
+        reward (to rounding). See the "Goal-conditioned" section."""
+        r = self._goal_task().compute_reward(achieved_goal, desired_goal, info)
+        return float(r) if np.ndim(r) == 0 else r
+
+    def _compute_terminated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                           info: Any) -> np.ndarray | bool:
+        """Whether the step ends the episode for ``desired_goal`` (batched as
+        :meth:`compute_reward`): success within the tolerances, or an end that does not
+        depend on the goal (overspeed, numerical failure, collision)."""
+        t = self._goal_task().compute_terminated(achieved_goal, desired_goal, info)
+        return bool(t) if np.ndim(t) == 0 else t
+
+    def _compute_truncated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                          info: Any) -> np.ndarray | bool:
+        """Always False (time limits belong to the wrappers), batched as
+        :meth:`compute_reward`."""
+        shape = np.shape(achieved_goal)[:-1]
+        self._goal_task()
+        return False if not shape else np.zeros(shape, dtype=np.bool_)
 
     def _info(self, at_reset: bool) -> dict[str, Any]:
         """The step info (``core.INFO_KEYS``, through the core's views of its blocks): vectors
@@ -273,6 +388,8 @@ class WheelEnv(gym.Env):
         for n, v in c.info_vectors:
             info[n] = v[0].copy()
         for n, v in c.info_numbers:
+            info[n] = v.item(0)
+        for n, v in c.info_core:
             info[n] = v.item(0)
         for n, v, neg in c.info_flags:
             info[n] = v.item(0) != neg

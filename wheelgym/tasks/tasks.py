@@ -25,7 +25,8 @@ from wheelgym.kinematics.references import (
 from wheelgym.tasks.kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_track
 from wheelgym.tasks.view import BatchView, RobotConstants
 
-__all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP"]
+__all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP", "HER_INFO_KEYS",
+           "GOAL_POS_BOUND", "her_info_arrays"]
 
 #: Bound of positions in the observation (m).
 POS_CLIP = 12.0
@@ -220,6 +221,140 @@ class GoalTask(Task):
     def target_pose(self) -> np.ndarray:
         return self.goal
 
+    # -------------------------------------------------- goal-conditioned (HER) observations
+    #: The goal spaces hold the yaw as (cos, sin) after (x, y) (navigate: position only).
+    goal_yaw: ClassVar[bool] = True
+    #: Reward term columns that depend on the goal (the others are summed into
+    #: ``info["reward_goal_free"]``): progress, heading (goal only), success.
+    _goal_cols: ClassVar[tuple[int, ...]] = (0, 1, 4)
+
+    @property
+    def goal_dim(self) -> int:
+        """Length of ``achieved_goal`` and ``desired_goal``: 4 (x, y, cos yaw, sin yaw) or 2."""
+        return 4 if self.goal_yaw else 2
+
+    def goal_high(self) -> np.ndarray:
+        """Bounds of the goal spaces: the true (unclipped) position within
+        :data:`GOAL_POS_BOUND` m; cos and sin in [-1, 1]."""
+        return np.array([GOAL_POS_BOUND, GOAL_POS_BOUND, 1.0, 1.0][:self.goal_dim])
+
+    def _as_goal(self, pose: np.ndarray) -> np.ndarray:
+        out = np.empty((pose.shape[0], self.goal_dim))
+        out[:, :2] = pose[:, :2]
+        if self.goal_yaw:
+            out[:, 2] = np.cos(pose[:, 2])
+            out[:, 3] = np.sin(pose[:, 2])
+        return out
+
+    def achieved_goal(self) -> np.ndarray:
+        """Every row's pose in the goal space ``(N, goal_dim)`` float64 (a new array)."""
+        return self._as_goal(self.core.pose)
+
+    def desired_goal(self) -> np.ndarray:
+        """Every row's goal in the goal space ``(N, goal_dim)`` float64 (a new array)."""
+        return self._as_goal(self.goal)
+
+    def goal_info(self, prev_achieved: np.ndarray, reset: np.ndarray | None = None
+                  ) -> dict[str, np.ndarray]:
+        """The step info that :meth:`compute_reward` needs, per row (new arrays):
+        ``prev_achieved_goal`` (the achieved goal before the step), ``reward_goal_free`` (the
+        weighted terms that do not depend on the goal), ``success_allowed`` (no numerical
+        failure, no collision) and ``terminated_goal_free`` (overspeed, failure or collision).
+        Rows ``reset`` (just reset) get their reset values: the current achieved goal, 0 and
+        False."""
+        c = self.core
+        free = [k for k in range(len(self.columns)) if k not in self._goal_cols]
+        gfree = np.zeros(c.num)
+        for k in free:  # the kernel's order of summation
+            gfree += c.terms[:, k]
+        vmax, wmax = self.cfg[2], self.cfg[3]
+        tw = c.twist
+        over = ~c.ok | (np.sqrt(tw[:, 0] * tw[:, 0] + tw[:, 1] * tw[:, 1]) > vmax) \
+            | (np.abs(tw[:, 2]) > wmax)
+        prev = np.array(prev_achieved, dtype=np.float64)
+        tfree = over | c.coll
+        if reset is not None and len(reset):
+            prev[reset] = self.achieved_goal()[reset]
+            gfree[reset] = 0.0
+            tfree[reset] = False
+        return {"prev_achieved_goal": prev, "reward_goal_free": gfree,
+                "success_allowed": c.ok & ~c.coll, "terminated_goal_free": tfree}
+
+    def _goal_terms(self, achieved: np.ndarray, desired: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance, |yaw error| (0 without yaw) and the tolerance test, as the kernel."""
+        dx = desired[..., 0] - achieved[..., 0]
+        dy = desired[..., 1] - achieved[..., 1]
+        d = np.sqrt(dx * dx + dy * dy)
+        if self.goal_yaw:  # yaw error: goal yaw minus yaw, wrapped by atan2
+            ca, sa, cg, sg = achieved[..., 2], achieved[..., 3], desired[..., 2], desired[..., 3]
+            ey = np.abs(np.arctan2(sg * ca - cg * sa, cg * ca + sg * sa))
+        else:
+            ey = np.zeros_like(d)
+        return d, ey, (d < self.tol_pos) & (ey < self.tol_yaw)
+
+    def compute_reward(self, achieved: np.ndarray, desired: np.ndarray,
+                       info: HerInfo) -> np.ndarray:
+        """The step reward for any goals, batched over leading axes (Gymnasium-Robotics)."""
+        achieved, desired = _goal_arrays(achieved, desired, self.goal_dim)
+        prev, gfree, allowed, _ = her_info_arrays(info, achieved.shape[:-1], self.goal_dim)
+        W = self.W
+        d, ey, near = self._goal_terms(achieved, desired)
+        pdx = desired[..., 0] - prev[..., 0]
+        pdy = desired[..., 1] - prev[..., 1]
+        r = W[0] * (np.sqrt(pdx * pdx + pdy * pdy) - d)
+        if self.goal_yaw:
+            r = r + -W[1] * ey / math.pi
+        r = r + np.where(allowed & near, W[4], 0.0)
+        return r + gfree
+
+    def compute_terminated(self, achieved: np.ndarray, desired: np.ndarray,
+                           info: HerInfo) -> np.ndarray:
+        """Whether the step ends the episode for these goals: success within the tolerances,
+        or an end that does not depend on the goal (overspeed, failure, collision)."""
+        achieved, desired = _goal_arrays(achieved, desired, self.goal_dim)
+        _, _, allowed, tfree = her_info_arrays(info, achieved.shape[:-1], self.goal_dim)
+        return (allowed & self._goal_terms(achieved, desired)[2]) | tfree
+
+
+#: ``compute_reward``'s ``info``: one step info dict, a batched (vector) info dict, or a
+#: sequence / object array of step info dicts.
+HerInfo = Any
+#: Keys of the step info that ``compute_reward`` and ``compute_terminated`` read.
+HER_INFO_KEYS = ("prev_achieved_goal", "reward_goal_free", "success_allowed",
+                 "terminated_goal_free")
+#: Bound of the goal spaces' positions (m).
+GOAL_POS_BOUND = 1e4
+
+
+def _goal_arrays(achieved: Any, desired: Any, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    a = np.asarray(achieved, dtype=np.float64)
+    g = np.asarray(desired, dtype=np.float64)
+    if a.shape[-1:] != (dim,) or g.shape[-1:] != (dim,):
+        raise ValueError(f"achieved_goal and desired_goal must end in an axis of {dim}, got "
+                         f"shapes {a.shape} and {g.shape}")
+    a, g = np.broadcast_arrays(a, g)
+    return a, g
+
+
+def her_info_arrays(info: HerInfo, batch: tuple[int, ...], dim: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``info``'s :data:`HER_INFO_KEYS` as arrays of leading shape ``batch``."""
+    if isinstance(info, Mapping):
+        vals = [np.asarray(info[k]) for k in HER_INFO_KEYS]
+    else:
+        rows = list(np.asarray(info, dtype=object).reshape(-1))
+        if len(rows) != int(np.prod(batch, dtype=np.int64)):
+            raise ValueError(f"info must hold one dict per goal ({int(np.prod(batch))}), got "
+                             f"{len(rows)}")
+        vals = [np.array([r[k] for r in rows]) for k in HER_INFO_KEYS]
+    try:
+        prev = vals[0].astype(np.float64).reshape(*batch, dim)
+        return (prev, *(v.reshape(batch) for v in vals[1:]))
+    except ValueError:
+        raise ValueError(f"info's {list(HER_INFO_KEYS)} do not match the goals' batch shape "
+                         f"{batch}") from None
+
 
 class NavigateTask(GoalTask):
     """Reach a goal position in an arena with obstacles, sensing them with range rays."""
@@ -230,6 +365,8 @@ class NavigateTask(GoalTask):
     tol_yaw = math.inf
     n_rays = 16
     max_range = 3.0
+    goal_yaw = False
+    _goal_cols = (0, 4)  # heading (weight 0 by default) compares with the env's goal yaw
 
     def __init__(self, core: BatchView, weights: Mapping[str, float] | None,
                  range_backend: str = "analytic", arena: str | None = None) -> None:

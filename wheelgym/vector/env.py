@@ -56,6 +56,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
+from wheelgym.envs.wheel_env import goal_space
 from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
@@ -158,6 +159,12 @@ class WheelVectorEnv(VectorEnv):
         # the single environment's spaces, batched
         self.single_action_space = spaces.Box(-1.0, 1.0, (c.action_dim,), np.float32)
         self.single_observation_space = spaces.Box(c.obs_low, c.obs_high, dtype=np.float32)
+        #: ``goal_conditioned``: Dict observations and ``compute_reward`` (the single env's
+        #: "Goal-conditioned" section), batched.
+        self.goal_conditioned = config.goal_conditioned
+        if self.goal_conditioned:
+            self.single_observation_space = goal_space(c, self.single_observation_space)
+        self._prev_ag: np.ndarray | None = None
         self.action_space = batch_space(self.single_action_space, N)
         self.observation_space = batch_space(self.single_observation_space, N)
 
@@ -172,7 +179,7 @@ class WheelVectorEnv(VectorEnv):
                                  "(vector/_kernels.k_info_copy)")
         self._fnames = tuple(n for n, _, _ in flags)
         self._fcols = tuple(col for _, col, _ in flags)
-        self._nkeys = len(self._bslices) + len(flags) + 1  # + reward_terms
+        self._nkeys = len(self._bslices) + len(c.info_core) + len(flags) + 1  # + reward_terms
         self._has_goal = hasattr(c.task, "goal")
         self._has_kind = hasattr(c.task, "kind")
         self._rngs: list[np.random.Generator | None] = [None] * N
@@ -247,10 +254,45 @@ class WheelVectorEnv(VectorEnv):
                 self._rngs[i] = seeding.np_random()[0]
         self._reset_rows(rows, options or None)
         self._autoreset[rows] = False
+        if self.goal_conditioned:
+            self._prev_ag = self.core.task.achieved_goal()
         info = self._info(mask, rows)
         if not mask.all():
             info = self._mask_info(info, mask)
-        return self.core.obs.copy(), info
+        return self._obs(), info
+
+    # ------------------------------------------------------------------ goal-conditioned
+    def _obs(self) -> np.ndarray | dict[str, np.ndarray]:
+        """A copy of the batch's observation (a dict of them when ``goal_conditioned``)."""
+        obs = self.core.obs.copy()
+        if not self.goal_conditioned:
+            return obs
+        task = self.core.task
+        return {"observation": obs, "achieved_goal": task.achieved_goal(),
+                "desired_goal": task.desired_goal()}
+
+    def _goal_task(self) -> Any:
+        if not self.goal_conditioned:
+            raise RuntimeError("compute_reward needs goal_conditioned=True")
+        return self.core.task
+
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                       info: Any) -> np.ndarray:
+        """The step reward for ``desired_goal``, batched over leading axes (the single env's
+        :meth:`~wheelgym.envs.WheelEnv.compute_reward`; ``info``: this env's batched info, or
+        a list/array of single step infos)."""
+        return self._goal_task().compute_reward(achieved_goal, desired_goal, info)
+
+    def compute_terminated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                           info: Any) -> np.ndarray:
+        """Success for ``desired_goal`` or a goal-independent end, batched."""
+        return self._goal_task().compute_terminated(achieved_goal, desired_goal, info)
+
+    def compute_truncated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                          info: Any) -> np.ndarray:
+        """All False, of the goals' batch shape."""
+        self._goal_task()
+        return np.zeros(np.shape(achieved_goal)[:-1], dtype=np.bool_)
 
     def _reset_rows(self, rows: np.ndarray, options: dict | None = None) -> None:
         self.core.reset(rows, self._rngs, options)
@@ -309,6 +351,8 @@ class WheelVectorEnv(VectorEnv):
             a = self._abuf
             if c.obs_noise > 0:
                 active = ~rr
+        if self.goal_conditioned:
+            self._prev_ag = c.task.achieved_goal()
         _, reward, term, _ = c.step(a, active)
         # time limits, the autoreset rows' zeros, the done rows and the rows to reset now,
         # in one pass (each step's arrays are new)
@@ -328,8 +372,10 @@ class WheelVectorEnv(VectorEnv):
             ended = done.copy()
             step_info = self._info(None, None)
             final_obs = np.full(N, None, dtype=object)
+            last = self._obs()
             for i in rows:
-                final_obs[i] = c.obs[i].copy()
+                final_obs[i] = ({k: v[i] for k, v in last.items()} if self.goal_conditioned
+                                else last[i])
             final = {"final_obs": final_obs, "_final_obs": ended,
                      "final_info": self._mask_info(step_info, ended),
                      "_final_info": ended.copy()}
@@ -342,7 +388,7 @@ class WheelVectorEnv(VectorEnv):
             self._autoreset, self._done_buf = done, rr
         elif mode is AutoresetMode.DISABLED:
             self._done[:] = done
-        return c.obs.copy(), R, term, trunc, info
+        return self._obs(), R, term, trunc, info
 
     # ------------------------------------------------------------------ info
     def _info(self, rows: np.ndarray | None, reset: np.ndarray | None) -> dict[str, Any]:
@@ -376,6 +422,10 @@ class WheelVectorEnv(VectorEnv):
             info[k] = Bo[:, sl]
             info["_" + k] = masks[j]
             j += 1
+        for k, v in c.info_core:  # per-row numbers the core keeps outside its blocks
+            info[k] = v.copy()
+            info["_" + k] = masks[j]
+            j += 1
         for f, k in enumerate(self._fnames):
             info[k] = Fo[f]
             info["_" + k] = masks[j]
@@ -386,6 +436,11 @@ class WheelVectorEnv(VectorEnv):
             terms["_" + n] = masks[nk + q]
         info["reward_terms"] = terms
         info["_reward_terms"] = masks[j]
+        if self.goal_conditioned:
+            g = c.task.goal_info(self._prev_ag, reset)
+            for k, v in g.items():
+                info[k] = v
+                info["_" + k] = masks[j].copy()
         if reset is not None and reset.size:
             info.update(self._reset_info(reset))
         return info

@@ -14,6 +14,12 @@ Per-sub-env ``infos`` follow SB3's ``DummyVecEnv``: every row has ``TimeLimit.tr
 ``info_keys="all"`` every row carries the single environment's whole info (as ``DummyVecEnv``
 of single environments gives it, bit for bit); a tuple of key names copies just those keys into
 every row; the default ``()`` keeps only the keys above (cheapest).
+
+With ``goal_conditioned=True`` the observations are dicts (``observation``, ``achieved_goal``,
+``desired_goal``), every row's info carries the keys ``compute_reward`` reads
+(``tasks.HER_INFO_KEYS``), and ``env_method("compute_reward", achieved, desired, infos,
+indices=[0])`` answers through the batched env's vectorised ``compute_reward``, so SB3's
+``HerReplayBuffer`` works on it unchanged.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
+from wheelgym.tasks.tasks import HER_INFO_KEYS
 from wheelgym.vector.env import WheelVectorEnv
 
 __all__ = ["SB3VecEnv", "make_sb3_vec_env"]
@@ -82,6 +89,8 @@ class SB3VecEnv(VecEnv):
                                  f"got {info_keys!r}")
         else:
             info_keys = tuple(info_keys)
+            if getattr(base, "goal_conditioned", False):  # what compute_reward reads
+                info_keys += tuple(k for k in HER_INFO_KEYS if k not in info_keys)
         self.venv = venv
         self.info_keys = info_keys
         self._actions: np.ndarray | None = None

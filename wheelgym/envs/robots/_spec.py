@@ -15,6 +15,7 @@ __all__ = ["RobotSpec", "RANDOMIZE_GROUPS"]
 #: Randomisation groups accepted by ``randomize=``; each robot supports a subset.
 RANDOMIZE_GROUPS = (
     "mass", "inertia", "friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit",
+    "motor",
 )
 
 
@@ -42,6 +43,9 @@ class RobotSpec:
         randomize: group -> tuple of (field, "rel" | "abs") entries.
         default_randomize: ranges used by ``randomize=True``.
         initial_state: ``initial_state(pose (N, 3), params) -> X (N, n_x)``.
+        k_env_step_dc, k_env_step_par_dc: the same two kernels with DC motors (``motor="dc"``:
+            the model's ``deriv_one_dc``, ``power_t_dc``, ``dc_kernels().block``; compiled on
+            first use); None for the kinematic robots.
         n_motor: motors (0 for kinematic robots: no torque, no energy).
         has_internal_force: whether ``xf`` (the internal-force measure) is meaningful.
         geometry: ``geometry(params) -> dict`` for rendering (footprint, wheel size).
@@ -94,6 +98,8 @@ class RobotSpec:
     baseline_controllers: bool = False
     n_steer_motor: int = 0
     stiffness_probe: tuple[tuple[float, ...], ...] | None = None
+    k_env_step_dc: Any = None
+    k_env_step_par_dc: Any = None
 
     # ------------------------------------------------------------------ derived
     @property
@@ -108,6 +114,17 @@ class RobotSpec:
         if self.kinematic:
             return self.model_cls(params, input_mode=mode)
         return self.model_cls(params)
+
+    @property
+    def has_dc_motors(self) -> bool:
+        """Whether the robot offers the DC motor model (``motor="dc"``)."""
+        return self.k_env_step_dc is not None
+
+    def step_kernels(self, dc: bool) -> tuple[Any, Any]:
+        """``(serial, parallel)`` env step kernels: ideal motors or (``dc``) DC motors."""
+        if dc:
+            return self.k_env_step_dc, self.k_env_step_par_dc
+        return self.k_env_step, self.k_env_step_par
 
     def action_dim(self, mode: str) -> int:
         """Size of the normalised action in ``mode``."""

@@ -12,18 +12,19 @@ import wheelgym.models.kernels.caster_agv as _kern
 from wheelgym.envs.robots._spec import RobotSpec, guard_cache
 from wheelgym.envs.robots.body import env_step_body, env_step_body_par, env_step_row
 from wheelgym.models import CasterAGV, CasterAGVParams
-from wheelgym.models.kernels.caster_agv import P_C, P_R, deriv_one
+from wheelgym.models import motor as _motor
+from wheelgym.models.kernels.caster_agv import (
+    P_C,
+    P_R,
+    deriv_one,
+    deriv_one_dc,
+    power_t,
+    power_t_dc,
+)
 
-guard_cache(__file__, _kern.__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__, _motor.__file__)
 
 __all__ = ["SPEC"]
-
-
-@njit(cache=True, inline="always")
-def _kpower(x, k, u, p):  # pragma: no cover - compiled
-    # tau_L thetadot_L + tau_R thetadot_R at a stage: the derivative k = f(x) holds the drive
-    # rates (state order of models/caster_agv.py: k[6] = thetadot_L, k[7] = thetadot_R)
-    return u[0] * k[6] + u[1] * k[7]
 
 
 @njit(cache=True, inline="always")
@@ -46,19 +47,38 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
     return 0.0
 
 
+# stage power: the model's power_t (tau_L thetadot_L + tau_R thetadot_R from the stage's
+# derivative), or power_t_dc (the electrical power of DC motors, ``motor="dc"``)
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    return env_step_body(deriv_one, _kpower, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+    return env_step_body(deriv_one, power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
 @njit(cache=True)
 def k_env_row(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
-    env_step_row(deriv_one, _kpower, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
+    env_step_row(deriv_one, power_t, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F, work)
 
 
 @njit(cache=True, parallel=True)
 def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_body_par(k_env_row, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_step_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_body(deriv_one_dc, power_t_dc, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+                         F)
+
+
+@njit(cache=True)
+def k_env_row_dc(i, X, A, LH, P, h, n, Xo, B, F, work):  # pragma: no cover - compiled
+    env_step_row(deriv_one_dc, power_t_dc, _jrate, _feats, i, X, A, LH, P, h, n, Xo, B, F,
+                 work)
+
+
+@njit(cache=True, parallel=True)
+def k_env_step_par_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_body_par(k_env_row_dc, X, A, LH, P, h, n, Xo, B, F)
 
 
 def _input_bounds(params: CasterAGVParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
@@ -94,6 +114,8 @@ SPEC = RobotSpec(
     model_cls=CasterAGV,
     k_env_step=k_env_step,
     k_env_step_par=k_env_step_par,
+    k_env_step_dc=k_env_step_dc,
+    k_env_step_par_dc=k_env_step_par_dc,
     input_bounds=_input_bounds,
     action_modes=("torque", "velocity"),
     twist_dim=2,
@@ -110,6 +132,7 @@ SPEC = RobotSpec(
         "wheel_radius": (("r", "rel"),),
         "caster_trail": (("d", "rel"),),
         "torque_limit": (("tau_max", "rel"),),
+        "motor": (("k_t", "rel"), ("R_w", "rel"), ("V_s", "rel")),
     },
     default_randomize={
         "mass": (0.8, 1.2), "inertia": (0.8, 1.2), "friction": (0.5, 1.5),

@@ -16,9 +16,22 @@ from wheelgym.envs.robots.body import (
 )
 from wheelgym.integrators import LANES
 from wheelgym.models import SkidSteer, SkidSteerParams
-from wheelgym.models.kernels.skid_steer import P_C, P_R, P_XICR, deriv_one, k_block, power_t
+from wheelgym.models import motor as _motor
+from wheelgym.models.kernels.skid_steer import (
+    P_C,
+    P_R,
+    P_XICR,
+    deriv_one,
+    deriv_one_dc,
+    k_block,
+    power_t,
+    power_t_dc,
+)
 
-guard_cache(__file__, _kern.__file__, _friction.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__, _motor.__file__)
+
+#: The model's block kernel with DC motors (a lazy dispatcher: compiled on first use).
+_k_block_dc = _kern.dc_kernels().block
 
 __all__ = ["SPEC"]
 
@@ -63,6 +76,25 @@ def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_blocks_par(k_env_block, X, A, LH, P, h, n, Xo, B, F)
 
 
+# DC motors (``motor="dc"``): the same kernels on the model's DC derivative and electrical power
+@njit(cache=True)
+def k_env_step_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    if X.shape[0] < LANES:
+        return env_step_body(deriv_one_dc, power_t_dc, _jrate, _feats, X, A, LH, P, h, n, Xo,
+                             B, F)
+    return env_step_blocks(_k_block_dc, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_block_dc(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
+    env_step_block(_k_block_dc, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
+
+
+@njit(cache=True, parallel=True)
+def k_env_step_par_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_blocks_par(k_env_block_dc, X, A, LH, P, h, n, Xo, B, F)
+
+
 def _input_bounds(params: SkidSteerParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
     t = np.full(4, params.tau_max)
     return -t, t
@@ -94,6 +126,8 @@ SPEC = RobotSpec(
     model_cls=SkidSteer,
     k_env_step=k_env_step,
     k_env_step_par=k_env_step_par,
+    k_env_step_dc=k_env_step_dc,
+    k_env_step_par_dc=k_env_step_par_dc,
     input_bounds=_input_bounds,
     action_modes=("torque", "velocity"),
     twist_dim=2,
@@ -110,6 +144,7 @@ SPEC = RobotSpec(
         "x_icr": (("x_icr", "abs"),),
         "wheel_radius": (("r", "rel"),),
         "torque_limit": (("tau_max", "rel"),),
+        "motor": (("k_t", "rel"), ("R_w", "rel"), ("V_s", "rel")),
     },
     default_randomize={
         "mass": (0.8, 1.2), "inertia": (0.8, 1.2), "friction": (0.7, 1.3),

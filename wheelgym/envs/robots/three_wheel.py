@@ -18,19 +18,26 @@ from wheelgym.envs.robots.body import (
 )
 from wheelgym.integrators import LANES, fma
 from wheelgym.models import ThreeWheel, ThreeWheelParams
+from wheelgym.models import motor as _motor
 from wheelgym.models.kernels.three_wheel import (
     P_INVD,
     P_INVR,
     deriv_one,
+    deriv_one_dc,
     dot3,
     gh,
     jacobian_rows,
     k_block,
     power_t,
+    power_t_dc,
     trig,
 )
 
-guard_cache(__file__, _kern.__file__, _friction.__file__, _distribution.__file__)
+guard_cache(__file__, _kern.__file__, _friction.__file__, _distribution.__file__,
+            _motor.__file__)
+
+#: The model's block kernel with DC motors (a lazy dispatcher: compiled on first use).
+_k_block_dc = _kern.dc_kernels().block
 
 __all__ = ["SPEC"]
 
@@ -87,6 +94,25 @@ def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_blocks_par(k_env_block, X, A, LH, P, h, n, Xo, B, F)
 
 
+# DC motors (``motor="dc"``): the same kernels on the model's DC derivative and electrical power
+@njit(cache=True)
+def k_env_step_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    if X.shape[0] < LANES:
+        return env_step_body(deriv_one_dc, power_t_dc, _jrate, _feats, X, A, LH, P, h, n, Xo,
+                             B, F)
+    return env_step_blocks(_k_block_dc, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_block_dc(b0, X, A, LH, P, h, n, Xo, B, F, W):  # pragma: no cover - compiled
+    env_step_block(_k_block_dc, _jrate, _feats, b0, X, A, LH, P, h, n, Xo, B, F, W)
+
+
+@njit(cache=True, parallel=True)
+def k_env_step_par_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
+    return env_step_blocks_par(k_env_block_dc, X, A, LH, P, h, n, Xo, B, F)
+
+
 def _input_bounds(params: ThreeWheelParams, mode: str) -> tuple[np.ndarray, np.ndarray]:
     t = params.tau_max
     return -t, t
@@ -130,6 +156,8 @@ SPEC = RobotSpec(
     model_cls=ThreeWheel,
     k_env_step=k_env_step,
     k_env_step_par=k_env_step_par,
+    k_env_step_dc=k_env_step_dc,
+    k_env_step_par_dc=k_env_step_par_dc,
     input_bounds=_input_bounds,
     action_modes=("torque", "velocity"),
     twist_dim=3,
@@ -146,6 +174,8 @@ SPEC = RobotSpec(
         "wheel_radius": (("r", "rel"),),
         "caster_trail": (("d", "rel"),),
         "torque_limit": (("tau_drive_max", "rel"), ("tau_steer_max", "rel")),
+        "motor": (("k_t_drive", "rel"), ("k_t_steer", "rel"), ("R_w_drive", "rel"),
+                  ("R_w_steer", "rel"), ("V_s", "rel")),
     },
     default_randomize={
         "mass": (0.8, 1.2), "inertia": (0.8, 1.2), "friction": (0.5, 1.5),
