@@ -17,7 +17,8 @@ class SkidSteerEnv(WheelEnv):
     ## Action Space
     ``Box(-1, 1, (4,))``. ``torque``: ``tau_k = a_k tau_max`` (30 N·m), motors [rear-left,
     front-left, front-right, rear-right]. ``velocity``: ``(vx, wz) = a * (1.0 m/s, 2.0 rad/s)``
-    tracked by :class:`wheelgym.control.TwistController` (shape ``(2,)``).
+    tracked by :class:`wheelgym.control.TwistController` (shape ``(2,)``). ``voltage``
+    (implies ``motor="dc"``): terminal voltages ``V_k = a_k V_s`` (24 V), same motor order.
 
     Robot features: none (``vy = -x_icr wz`` is part of the twist). Speed limits: 2.5 m/s,
     5 rad/s. ``randomize`` groups: mass, inertia, friction, x_icr (absolute, m), wheel_radius,
@@ -38,6 +39,8 @@ class ThreeWheelEnv(WheelEnv):
     ``torque``: ``Box(-1, 1, (6,))``, ``tau = a * (6, 6, 6, 3, 3, 3) N·m`` in motor order
     [drive_1..3, steer_1..3]. ``velocity``: ``Box(-1, 1, (3,))``, ``(vx, vy, wz) = a * (1.0,
     1.0, 2.0)`` (m/s, m/s, rad/s) tracked by :class:`wheelgym.control.TwistController`.
+    ``voltage`` (implies ``motor="dc"``): ``Box(-1, 1, (6,))``, terminal voltages
+    ``V_k = a_k V_s`` (24 V), same motor order.
 
     Robot features: cos psi_1..3, sin psi_1..3 (steering angles, -). Speed limits: 2.0 m/s,
     4 rad/s. ``internal_force`` is the norm of the null-space component of the motor torques,
@@ -59,7 +62,8 @@ class CasterAGVEnv(WheelEnv):
     ## Action Space
     ``torque``: ``Box(-1, 1, (2,))``, ``tau = a * 6 N·m`` (left, right). ``velocity``:
     ``Box(-1, 1, (2,))``, ``(v, w) = a * (1.0 m/s, 2.0 rad/s)`` of the axle midpoint, tracked by
-    :class:`wheelgym.control.TwistController`.
+    :class:`wheelgym.control.TwistController`. ``voltage`` (implies ``motor="dc"``):
+    ``Box(-1, 1, (2,))``, terminal voltages ``V = a * V_s`` (24 V; left, right).
 
     Robot features: cos sigma, sin sigma (caster swivel angle). Speed limits: 2.0 m/s, 5 rad/s.
     """

@@ -26,6 +26,10 @@ observation), and outputs actions in the env's action space:
 2. the twist becomes the action: ``velocity`` mode scales it by the command bounds; ``torque``
    mode passes it through :class:`~wheelgym.control.controllers.TwistController` (track on
    ThreeWheel/SkidSteer: :class:`~wheelgym.control.controllers.TrackingController` directly);
+   ``voltage`` mode computes the same torques, clipped to the torque limits, and applies the
+   terminal voltage that makes each DC motor deliver its torque at the joint speed at the
+   start of the step (:func:`voltage_for_torque`; the voltage is held over the step while the
+   speed changes, so the torque drifts from the command within a step);
    kinematic robots map it onto their input mode.
 
 Everything is batched over the core's rows with elementwise NumPy.
@@ -44,11 +48,25 @@ from wheelgym.envs.core import WheelCore
 # for bit on any CPU (NumPy's own loops depend on the CPU and the array's layout)
 from wheelgym.models import elementwise as ew
 
-__all__ = ["baseline", "BaselinePolicy"]
+__all__ = ["baseline", "BaselinePolicy", "voltage_for_torque"]
 
 
 def _sq(a: np.ndarray) -> np.ndarray:
     return a * a
+
+
+def voltage_for_torque(tau: np.ndarray, omega: np.ndarray, n: np.ndarray, eta: np.ndarray,
+                       k_t: np.ndarray, R_w: np.ndarray) -> np.ndarray:
+    """Terminal voltage (V) at which a DC motor applies the joint torque ``tau`` (N·m) at
+    joint speed ``omega`` (rad/s), inside the drive's limits: the inverse of
+    ``wheelgym.models.motor``'s law, ``V = R_w i + k_e n omega`` with the current
+    ``i = tau / (n k_t eta)`` motoring (``tau omega >= 0``) and ``i = tau eta / (n k_t)``
+    driven back (the gear loss's direction, as ``dc_current`` decides it). Where the result
+    exceeds ``V_s`` or its current ``I_max``, the motor delivers less (NumPy; broadcasts)."""
+    K = n * k_t  # N·m per A before the gear loss, V per joint rad/s of back-EMF
+    # the factors of motor.pack_motor (M_I_FWD, M_I_BACK), so the bits match the kernels'
+    i = tau * np.where(tau * omega >= 0.0, 1.0 / (K * eta), eta / K)
+    return R_w * i + K * omega
 
 
 def _find_core(env: Any) -> WheelCore:
@@ -90,6 +108,8 @@ class BaselinePolicy:
         self.x_icr = float(getattr(core.base_params, "x_icr", 0.0))
         self._twist_ctl = None
         self._track_ctl = None
+        #: voltage mode: the rows' Params and their motor tables (:meth:`_motor_rows`)
+        self._mrows: tuple[list[Any], dict[str, np.ndarray]] | None = None
         #: car-like robots on ``goal``: one Reeds-Shepp tracker per row, replanned when the
         #: row starts an episode (its step counter is 0) or its goal changes
         self._cars: list[Any] | None = None
@@ -123,12 +143,13 @@ class BaselinePolicy:
     def actions(self) -> np.ndarray:
         c = self.core
         task = c.task_name
-        if task == "track" and self._track_ctl is not None and c.action_mode == "torque":
+        if task == "track" and self._track_ctl is not None and \
+                not c.spec.tracks_twist(c.action_mode):
             pose, tw, rate = c.task.reference_at()
             if not self.holonomic:  # the controller steers the ICR point: shift its reference
                 pose = self._icr_reference(pose)
             tau, _ = self._track_ctl.torques(c.X, pose, tw, rate)
-            return np.clip(tau / c.HI, -1.0, 1.0)
+            return self._torque_action(tau)
         if self._cars is not None:
             return self._car_actions()
         if task == "track":
@@ -259,7 +280,40 @@ class BaselinePolicy:
             cc = 0.5 * p.track_width
             tau = np.stack([p.r * (0.5 * f - 0.5 * mz / cc), p.r * (0.5 * f + 0.5 * mz / cc)],
                            axis=1)
-        return np.clip(tau / c.HI, -1.0, 1.0)
+        return self._torque_action(tau)
+
+    def _torque_action(self, tau: np.ndarray) -> np.ndarray:
+        """Motor torques ``tau (N, m)`` as the action: ``torque`` mode ``tau / tau_max``;
+        ``voltage`` mode the voltage (:func:`voltage_for_torque`, of ``V_s``) that applies
+        ``tau`` clipped to the torque limits at each motor's current joint speed."""
+        c = self.core
+        if not c.voltage:
+            return np.clip(tau / c.HI, -1.0, 1.0)
+        t = self._motor_rows()
+        tau = np.clip(tau, -t["tau_max"], t["tau_max"])  # the torque mode's limits
+        v = voltage_for_torque(tau, c.jv, t["gear_ratio"], t["gear_efficiency"], t["k_t"],
+                               t["R_w"])
+        return np.clip(v / c.HI, -1.0, 1.0)  # HI: each row's V_s
+
+    def _motor_rows(self) -> dict[str, np.ndarray]:
+        """Per-row motor tables ``(N, m)`` (``Params.motor_table()`` and the torque limits)
+        of the core's rows' parameters, rebuilt when a reset draws new ones."""
+        rows = self.core.params_rows
+        cached = self._mrows
+        if cached is not None and len(cached[0]) == len(rows) and all(
+                a is b for a, b in zip(cached[0], rows, strict=True)):
+            return cached[1]
+        spec = self.core.spec
+        tables: dict[int, dict[str, np.ndarray]] = {}  # one table per distinct Params object
+        for p in rows:
+            if id(p) not in tables:
+                tab = p.motor_table()
+                tab["tau_max"] = np.broadcast_to(spec.input_bounds(p, "torque")[1],
+                                                 tab["V_s"].shape)
+                tables[id(p)] = tab
+        out = {k: np.stack([tables[id(p)][k] for p in rows]) for k in tables[id(rows[0])]}
+        self._mrows = (list(rows), out)
+        return out
 
     def _kinematic_action(self, cmd: np.ndarray) -> np.ndarray:
         c = self.core

@@ -111,20 +111,34 @@ def _check_randomize(spec: RobotSpec, randomize: Any) -> dict[str, tuple[float, 
     return out
 
 
-def _check_motor(spec: RobotSpec, motor: Any, params: Mapping[str, Any],
-                 randomize: Mapping[str, Any]) -> None:
-    """``motor`` is one of :data:`MOTORS`, ``"dc"`` only on a robot with motors; the motor mode
-    is this keyword's, not a ``params`` entry; ``randomize["motor"]`` needs DC motors."""
+def _check_motor(spec: RobotSpec, motor: Any, mode: str, params: Mapping[str, Any],
+                 randomize: Mapping[str, Any]) -> str:
+    """The resolved ``motor``: one of :data:`MOTORS`, or None for the action mode's
+    (``"dc"`` in ``action_mode="voltage"``, else ``"ideal"``). ``"dc"`` only on a robot with
+    motors; the voltage mode needs the DC motors (``motor="ideal"`` with it raises); the motor
+    mode is this keyword's, not a ``params`` entry; ``randomize["motor"]`` needs DC motors."""
+    voltage = mode in spec.dc_action_modes
+    if motor is None:
+        motor = "dc" if voltage else "ideal"
     if not isinstance(motor, str) or motor not in MOTORS:
-        raise ValueError(f"motor must be one of {list(MOTORS)}, got {motor!r}")
+        hint = (" (the model's voltage input: pass action_mode='voltage')"
+                if motor == "dc_voltage" else "")
+        raise ValueError(f"motor must be one of {list(MOTORS)} or None (the action mode's), "
+                         f"got {motor!r}{hint}")
     if motor != "ideal" and not spec.has_dc_motors:
         raise ValueError(f"motor={motor!r}: {spec.name} has no motor model (kinematic inputs); "
                          f"use motor='ideal'")
+    if voltage and motor != "dc":
+        raise ValueError(
+            f"action_mode={mode!r} commands the DC motors' terminal voltages, which "
+            f"motor={motor!r} does not have: pass motor='dc' (or leave motor unset, which "
+            f"implies it), or an action_mode of {list(spec.action_modes)} for ideal motors")
     if "motor" in params:
         raise ValueError("params['motor']: choose the motor model with the motor= keyword")
     if "motor" in randomize and motor == "ideal":
         raise ValueError("randomize['motor'] draws DC motor parameters, which ideal motors do "
                          "not use (nothing would change); pass motor='dc'")
+    return motor
 
 
 def _check_delay(name: str, value: Any) -> int:
@@ -153,6 +167,7 @@ class EnvConfig:
     """The keyword arguments of every wheelgym environment, validated and normalised.
 
     The fields hold the resolved values: ``action_mode`` the robot's default when not given,
+    ``motor`` the action mode's when not given (``"dc"`` for ``"voltage"``, else ``"ideal"``),
     ``ctrl_dt`` and ``sim_dt`` the model's defaults (floats), ``randomize`` a dict group ->
     ``(low, high)`` (``{}``: none), ``params`` a dict. Building a config from another's fields
     gives an equal config. The meaning of each field is the "Arguments" table of
@@ -161,7 +176,8 @@ class EnvConfig:
     Attributes:
         robot: robot name (``"ThreeWheel"``...; ``wheelgym.envs.robots``).
         task: ``"goal"``, ``"track"`` or ``"navigate"``.
-        action_mode: one of the robot's action modes.
+        action_mode: one of the robot's action modes (``RobotSpec.all_action_modes``:
+            ``"torque"``, ``"velocity"``, and ``"voltage"`` on the robots with DC motors).
         params: parameter overrides (field names of the robot's Params dataclass).
         ctrl_dt, sim_dt: control period and RK4 substep (s).
         randomize: group -> (low, high) ranges drawn at each reset.
@@ -181,7 +197,10 @@ class EnvConfig:
             (>= 0; 0: off).
         motor: the dynamic robots' motors: ``"ideal"`` (the joints get the commanded torque)
             or ``"dc"`` (DC motors with back-EMF, current and voltage limits,
-            ``wheelgym.models.motor``); one of :data:`MOTORS`.
+            ``wheelgym.models.motor``); one of :data:`MOTORS`. Given as None (the default)
+            it resolves to the action mode's: ``"dc"`` with ``action_mode="voltage"`` (the
+            action is the DC motors' terminal voltage; ``"ideal"`` with it raises), else
+            ``"ideal"``.
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -201,7 +220,7 @@ class EnvConfig:
     goal_conditioned: bool = False
     action_delay: int = 0
     actuator_lag: float = 0.0
-    motor: str = "ideal"
+    motor: str | None = None
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -215,10 +234,10 @@ class EnvConfig:
         if self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}; valid tasks: {list(TASKS)}")
         mode = spec.action_modes[0] if self.action_mode is None else self.action_mode
-        if mode not in spec.action_modes:
+        if mode not in spec.all_action_modes:
             raise ValueError(
                 f"unknown action_mode {self.action_mode!r} for {spec.name}; valid modes: "
-                f"{list(spec.action_modes)}"
+                f"{list(spec.all_action_modes)}"
             )
         put("action_mode", mode)
         if self.params is not None and not isinstance(self.params, Mapping):
@@ -246,7 +265,7 @@ class EnvConfig:
         put("horizon", int(h))
         put("action_delay", _check_delay("action_delay", self.action_delay))
         put("actuator_lag", _check_number("actuator_lag", self.actuator_lag, 0.0))
-        _check_motor(spec, self.motor, self.params, self.randomize)
+        put("motor", _check_motor(spec, self.motor, mode, self.params, self.randomize))
         if self.reward_weights is not None and not isinstance(self.reward_weights, Mapping):
             raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
         if self.task != "navigate" and self.range_backend != "analytic":

@@ -139,8 +139,13 @@ class WheelCore:
         self.action_mode = mode = cfg.action_mode
         #: DC motors (``motor="dc"``): the model's DC law and electrical power in the step.
         self.dc = cfg.motor != "ideal"
+        #: ``action_mode="voltage"``: the inputs are the DC motors' terminal voltages (the
+        #: model's ``motor="dc_voltage"``, stepped by the same DC kernels: the mode code in
+        #: the packed parameters selects the voltage law).
+        self.voltage = mode in spec.dc_action_modes
         self.model = spec.make_model(
-            {**cfg.params, "motor": cfg.motor} if self.dc else cfg.params, mode)
+            {**cfg.params, "motor": spec.model_motor(cfg.motor, mode)} if self.dc
+            else cfg.params, mode)
         self.base_params = self.model.params
         self.dt = cfg.ctrl_dt
         self.n_sub = cfg.n_substeps

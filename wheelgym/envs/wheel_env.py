@@ -92,7 +92,7 @@ on that reset only (autoresets draw as usual).
 
 Terminated on success (goal: within 0.1 m and 0.2 rad; navigate: within 0.25 m), overspeed
 (with the default ideal motors nothing caps the speed but this sanity limit; ``motor="dc"``
-adds the back-EMF, which caps it near the motors' no-load speed), lost (track),
+and the voltage mode add the back-EMF, which caps it near the motors' no-load speed), lost (track),
 collision (navigate), or a diverged integration (``info["numerical_failure"] = True``: the
 state turned non-finite or a twist entry exceeded 1e3 m/s or rad/s,
 ``robots.body.SPEED_BOUND``; the state, the observation and the reward then stay at the last
@@ -115,7 +115,9 @@ there once (the vector env takes the same).
 | argument       | default           | meaning                                                 |
 |----------------|-------------------|---------------------------------------------------------|
 | task           | "goal"            | "goal", "track" or "navigate"                           |
-| action_mode    | the robot's first | "torque" or "velocity"; kinematic robots: input modes   |
+| action_mode    | the robot's first | "torque" or "velocity"; kinematic robots: input modes;  |
+|                |                   | ThreeWheel, SkidSteer, CasterAGV also "voltage" (DC     |
+|                |                   | motors' terminal voltages: a_k V_s, implies motor="dc") |
 | params         | None              | dict of overrides (field names of the robot's Params)   |
 | ctrl_dt        | model default     | control period (s), 0.05; at most 1 s                   |
 | sim_dt         | model default     | RK4 substep (s); divides ctrl_dt in at most 10000 steps |
@@ -136,17 +138,32 @@ there once (the vector env takes the same).
 |                |                   | steps of an episode apply the zero action (velocity     |
 |                |                   | mode: the twist command is delayed)                     |
 | actuator_lag   | 0.0               | time constant T (s) of a first-order lag on the applied |
-|                |                   | torques (kinematic robots: inputs); 0 = off; discrete   |
-|                |                   | at the control step: u += (1 - exp(-ctrl_dt / T))      |
-|                |                   | (u_cmd - u), held over the step's substeps              |
-| motor          | "ideal"           | dynamic robots' motors: "ideal" (the joint gets the     |
-|                |                   | commanded torque) or "dc" (DC motor with back-EMF and   |
-|                |                   | current/voltage limits inside each RK4 stage,           |
-|                |                   | ``wheelgym.models.motor``; parameters in ``params``)    |
+|                |                   | torques (voltage mode: voltages; kinematic robots:      |
+|                |                   | inputs); 0 = off; discrete at the control step:         |
+|                |                   | u += (1 - exp(-ctrl_dt / T)) (u_cmd - u), held over the |
+|                |                   | step's substeps                                         |
+| motor          | None: "ideal"     | dynamic robots' motors: "ideal" (the joint gets the     |
+|                | ("dc" in voltage  | commanded torque) or "dc" (DC motor with back-EMF and   |
+|                | mode)             | current/voltage limits inside each RK4 stage,           |
+|                |                   | ``wheelgym.models.motor``; parameters in ``params``);   |
+|                |                   | "voltage" mode needs "dc" ("ideal" raises ValueError)   |
+
+Action modes of the dynamic robots (the robot classes' "Action Space" give the scales):
+
+| action_mode | action a (entries in [-1, 1])      | physical input                          |
+|-------------|------------------------------------|-----------------------------------------|
+| torque      | one per motor                      | torque command a_k tau_max_k (N·m)      |
+| velocity    | the body twist (twist_dim entries) | tracked by ``TwistController``          |
+| voltage     | one per motor; needs (and implies) | terminal voltage a_k V_s (V); the DC    |
+|             | ``motor="dc"``                     | law (back-EMF, winding resistance,      |
+|             |                                    | current limit, gear) makes the torque   |
+|             |                                    | in every RK4 stage (the model's         |
+|             |                                    | "dc_voltage")                           |
 
 ``randomize`` groups (each robot supports those its parameters have): "mass", "inertia",
 "friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit", "motor" (``motor="dc"``
-only: torque constants, winding resistances and the supply voltage). A value is a relative
+only: torque constants, winding resistances and the supply voltage; in voltage mode a drawn
+``V_s`` also rescales that row's action, ``+-1 = +-V_s``). A value is a relative
 factor range ``(low, high)`` (or a fraction f meaning ``(1 - f, 1 + f)``) multiplying every
 parameter of the group; ``x_icr`` takes an absolute range (m). ``reset`` returns the draws in
 ``info["params"]``. The velocity mode's controller keeps the nominal parameters, and so
@@ -175,15 +192,18 @@ and listing the valid choices or range.
 | pose              | m, m, rad  | (x, y, yaw) in W (yaw unwrapped)                             |
 | twist             | m/s, rad/s | (vx, vy, wz) in B                                            |
 | motor_torque      | N·m        | commanded motor torques after clipping (empty: kinematic);   |
-|                   |            | ``motor="dc"``: the command, before the motor's envelope     |
+|                   |            | ``motor="dc"``: the command, before the motor's envelope;    |
+|                   | (V)        | voltage mode: the commanded terminal voltages (V)            |
 | joint_velocity    | rad/s      | motor joint rates at the end of the step (empty: kinematic)  |
 | tracking_error    | m          | distance to the goal or to the reference                     |
 | energy            | J          | cumulative motor work, RK4 integral of tau . qdot;           |
-|                   |            | ``motor="dc"``: of the electrical power sum V i              |
+|                   |            | ``motor="dc"`` (and voltage mode): of the electrical power   |
+|                   |            | sum V i                                                      |
 | electrical_power  | W          | mean power the motors drew over the step: its ``energy``     |
 |                   |            | increment / ctrl_dt (ideal motors: mean of tau . qdot); 0    |
 |                   |            | at a reset                                                   |
-| internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0)    |
+| internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0);   |
+|                   | (V)        | voltage mode: of the commanded voltages' (V)                 |
 | saturated         | bool       | an action or a controller torque was clipped                 |
 | is_success        | bool       | goal reached; track: within 5 cm of the reference            |
 | numerical_failure | bool       | the integration diverged (the episode ends; Episode End)     |

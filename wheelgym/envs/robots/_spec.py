@@ -10,13 +10,18 @@ import numpy as np
 
 from wheelgym.models import Model, Params
 
-__all__ = ["RobotSpec", "RANDOMIZE_GROUPS"]
+__all__ = ["RobotSpec", "RANDOMIZE_GROUPS", "VOLTAGE_MODE"]
 
 #: Randomisation groups accepted by ``randomize=``; each robot supports a subset.
 RANDOMIZE_GROUPS = (
     "mass", "inertia", "friction", "x_icr", "wheel_radius", "caster_trail", "torque_limit",
     "motor",
 )
+
+#: The action mode of the DC motors' terminal voltages (:attr:`RobotSpec.dc_action_modes`):
+#: action ``a_k`` in [-1, 1] applies ``a_k V_s`` (V) to motor k, the model's
+#: ``motor="dc_voltage"`` input.
+VOLTAGE_MODE = "voltage"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,8 +38,11 @@ class RobotSpec:
             threads (``parallel=True``; same bits per row), used from ``body.PAR_MIN_ROWS``
             rows.
         input_bounds: ``input_bounds(params, mode) -> (lo, hi)`` physical bounds of the
-            action in that action mode (torques N·m, or the kinematic inputs).
-        action_modes: valid ``action_mode`` values, the default first.
+            action in that action mode (torques N·m, or the kinematic inputs; the
+            ``"voltage"`` mode's ``+-V_s`` come from :meth:`action_bounds` itself).
+        action_modes: the ``action_mode`` values valid with either motor model, the default
+            first (the robots with DC motors add :attr:`dc_action_modes`; every valid value:
+            :attr:`all_action_modes`).
         twist_dim: 3 (vx, vy, wz) or 2 (vx, wz) for the velocity mode's command.
         twist_max: bounds of the velocity-mode command in its units (m/s, rad/s).
         v_max, w_max: sanity limits (m/s, rad/s): beyond them an episode ends (``overspeed``).
@@ -120,6 +128,27 @@ class RobotSpec:
         """Whether the robot offers the DC motor model (``motor="dc"``)."""
         return self.k_env_step_dc is not None
 
+    @property
+    def dc_action_modes(self) -> tuple[str, ...]:
+        """Action modes that command the DC motors themselves: ``("voltage",)``
+        (:data:`VOLTAGE_MODE`) on the robots with the DC motor model, else none. They are
+        valid ``action_mode`` values besides :attr:`action_modes` and imply ``motor="dc"``
+        (the model's ``motor="dc_voltage"``: the DC env kernels with the voltage mode code).
+        Kept out of ``action_modes``, whose every mode runs with the default ideal motors
+        (the per-mode loops of the tests and benchmarks)."""
+        return (VOLTAGE_MODE,) if self.has_dc_motors else ()
+
+    @property
+    def all_action_modes(self) -> tuple[str, ...]:
+        """Every valid ``action_mode``: :attr:`action_modes` then :attr:`dc_action_modes`."""
+        return self.action_modes + self.dc_action_modes
+
+    def model_motor(self, motor: str, mode: str) -> str:
+        """The model's ``motor`` parameter for the env keyword ``motor`` in action ``mode``:
+        ``"dc_voltage"`` in a :attr:`dc_action_modes` mode (the input is the terminal
+        voltage), else ``motor`` itself."""
+        return "dc_voltage" if mode in self.dc_action_modes else motor
+
     def step_kernels(self, dc: bool) -> tuple[Any, Any]:
         """``(serial, parallel)`` env step kernels: ideal motors or (``dc``) DC motors."""
         if dc:
@@ -141,7 +170,15 @@ class RobotSpec:
         at the nominal model ``model``."""
         if self.kinematic:
             return model.input_bounds()
-        return self.input_bounds(model.params, mode)
+        return self._input_bounds(model.params, mode)
+
+    def _input_bounds(self, params: Params, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """``input_bounds(params, mode)``; in a :attr:`dc_action_modes` mode the terminal
+        voltages ``-V_s .. V_s`` of each motor (V, ``params.motor_table()``)."""
+        if mode in self.dc_action_modes:
+            v = np.array(params.motor_table()["V_s"], dtype=np.float64)
+            return -v, v
+        return self.input_bounds(params, mode)
 
     def row_params(self, nominal: Model, params: Params, mode: str
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -152,7 +189,7 @@ class RobotSpec:
             mdl = self.make_model(params, mode)
             lo, hi = nominal.action_bounds(mdl)  # the commanding side's scale
             return mdl.packed, lo, hi
-        lo, hi = self.input_bounds(params, mode)
+        lo, hi = self._input_bounds(params, mode)
         return params.pack(), lo, hi
 
     def check_randomize(self, model: Model, ranges: Mapping[str, tuple[float, float]]) -> None:
