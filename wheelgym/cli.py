@@ -210,7 +210,9 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="render the analytic baseline driving an environment")
     d.add_argument("env_id", metavar="ID", help="e.g. ThreeWheel-v0 or wheelgym/ThreeWheel-v0")
     d.add_argument("--task", default=None, help="goal, track or navigate")
-    d.add_argument("--action-mode", default=None, help="torque or velocity")
+    d.add_argument("--action-mode", default=None,
+                   help="the robot's action mode (dynamic robots: torque, velocity or "
+                        "voltage; kinematic robots: their input modes)")
     d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--episodes", type=_positive_int, default=1)
     d.add_argument("--out", type=Path, default=None,
