@@ -1,10 +1,12 @@
 """Steps per second of ``env.step`` for every wheelgym id and task vs Gymnasium's Pendulum-v1.
 
-Run: ``python benchmarks/envs.py [--steps 3000] [--repeats 5] [--robots ...] [--motor-only]``.
-Prints a Markdown table of the median time per step (us) and the ratio of steps/s to
-Pendulum-v1 measured in the same run (higher is faster), the cost of the DC motor model
-(``motor="dc"`` vs ``"ideal"``, goal task, torque mode, timed alternately in the same run;
-``--motor-only``: that table alone), plus ``gym.make`` time once the compiled caches exist.
+Run: ``python benchmarks/envs.py [--steps 3000] [--repeats 5] [--robots ...] [--motor-only]
+[--maps-only]``. Prints a Markdown table of the median time per step (us) and the ratio of
+steps/s to Pendulum-v1 measured in the same run (higher is faster), the cost of the DC motor
+model (``motor="dc"`` vs ``"ideal"``, goal task, torque mode, timed alternately in the same
+run; ``--motor-only``: that table alone), the cost of map-based ``navigate`` (each shipped map
+vs the random arena, timed alternately; ``--maps-only``: that table alone), plus ``gym.make``
+time once the compiled caches exist.
 Actions are sampled before timing; episodes that end are reset outside the timed region's
 count.
 """
@@ -113,6 +115,24 @@ def bench_motor(robots: list[str], steps: int, repeats: int) -> None:
         ideal.close()
 
 
+def bench_maps(robots: list[str], steps: int, repeats: int) -> None:
+    """navigate, the robot's first action mode: us/step on each shipped map and on the random
+    arena (timed alternately, the same actions) and their ratio."""
+    from wheelgym.world import MAPS
+
+    print("| id | arena | map us/step | random arena us/step | map / random |")
+    print("|---|---|---|---|---|")
+    for robot in robots:
+        rand = gym.make(env_id(robot), task="navigate")
+        for name in MAPS:
+            env = gym.make(env_id(robot), task="navigate", arena=name)
+            t_map, t_rand = time_steps(env, steps, repeats, ref=rand)
+            print(f"| {env_id(robot)} | {name} | {t_map * 1e6:.1f} | {t_rand * 1e6:.1f} | "
+                  f"{t_map / t_rand:.2f}x |")
+            env.close()
+        rand.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=3000)
@@ -120,9 +140,14 @@ def main() -> None:
     ap.add_argument("--robots", nargs="*", default=None)
     ap.add_argument("--motor-only", action="store_true",
                     help="only the motor='dc' vs 'ideal' table")
+    ap.add_argument("--maps-only", action="store_true",
+                    help="only the map-based navigate vs random arena table")
     args = ap.parse_args()
     if args.motor_only:
         bench_motor(args.robots or available_robots(), args.steps, args.repeats)
+        return
+    if args.maps_only:
+        bench_maps(args.robots or available_robots(), args.steps, args.repeats)
         return
     pend = gym.make("Pendulum-v1")
     print("Pendulum-v1 is timed alternately with each row (its us/step in the last column).\n")
@@ -155,6 +180,8 @@ def main() -> None:
                       f"| {1 / t:,.0f} | {t_ref / t:.2f}x | | {t_ref * 1e6:.1f} |")
     print()
     bench_motor(robots, args.steps, args.repeats)
+    print()
+    bench_maps(robots, args.steps, args.repeats)
     print()
     bench_rays()
     print()
