@@ -8,6 +8,7 @@ command                                 what it does
 ``wheelgym train CONFIG``               train from a YAML config into a new run folder
 ``wheelgym train --resume RUN``         continue a run from its last model or checkpoint
 ``wheelgym evaluate RUN``               table (Markdown + CSV), plots, optional video
+``wheelgym evaluate --pretrained NAME`` the same for a shipped agent (agents/pretrained/)
 ``wheelgym tune CONFIG``                Optuna hyperparameter search; writes the best config
                                         (``--storage URL``: workers on many machines)
 ``wheelgym tune --export NAME``         write the best config of an existing study
@@ -15,7 +16,10 @@ command                                 what it does
                                         ``--ray ADDRESS``: as Ray tasks on a cluster)
 ``wheelgym benchmark --table``          the results table (Markdown) from that CSV
 ``wheelgym benchmark --curves OUT``     learning curves of the configs given, from that CSV
+``wheelgym pretrained list|export``     the shipped agents; export the best seeds of the
+                                        benchmark CSV into agents/pretrained/
 ``wheelgym demo ID``                    watch (or save a GIF/MP4 of) the baseline driving
+                                        (``--agent NAME``: a shipped agent instead)
 ``wheelgym validate``                   the physics validation report
 ======================================= ==================================================
 
@@ -34,6 +38,7 @@ shows the traceback instead.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -132,13 +137,18 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2))
 
     e = sub.add_parser("evaluate", help="score a run against the baseline and a random policy")
-    e.add_argument("run", type=Path, help="run folder (holds config.yml and model.zip)")
+    e.add_argument("run", nargs="?", type=Path,
+                   help="run folder (holds config.yml and model.zip)")
+    e.add_argument("--pretrained", default=None, metavar="NAME",
+                   help="evaluate the shipped agent NAME (a config name, see `wheelgym "
+                        "pretrained list`) instead of a run folder")
     e.add_argument("--episodes", type=_positive_int, default=50)
     e.add_argument("--seed", type=_nonneg_int, default=100_000,
                    help="first episode seed (episodes use seed, seed+1, ...)")
     e.add_argument("--video", action="store_true", help="also write one video per policy")
     e.add_argument("--best", action="store_true", help="use best_model.zip, not model.zip")
-    e.add_argument("--out", type=Path, default=None, help="output folder (default RUN/eval)")
+    e.add_argument("--out", type=Path, default=None,
+                   help="output folder (default RUN/eval, or runs/pretrained-eval/NAME)")
 
     u = sub.add_parser("tune", help="hyperparameter search with Optuna (writes the best config)")
     u.add_argument("config", nargs="?", type=Path, help="YAML config to tune (see configs/)")
@@ -207,12 +217,31 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
 
-    d = sub.add_parser("demo", help="render the analytic baseline driving an environment")
+    r = sub.add_parser("pretrained", help="list the shipped agents, or export them from the "
+                                          "benchmark CSV")
+    r.add_argument("action", choices=("list", "export"),
+                   help="list: the agents and their cards; export: copy the best seed of each "
+                        "config from the CSV")
+    r.add_argument("configs", nargs="*", type=Path,
+                   help="export: the configs (names or files) to export, those that met their "
+                        "targets (default: every config in the CSV)")
+    r.add_argument("--csv", type=Path, default=None,
+                   help="export: results CSV (default benchmarks/results/training.csv)")
+    r.add_argument("--root", type=Path, default=None,
+                   help="folder of agents (default agents/pretrained, or $WHEELGYM_PRETRAINED)")
+    r.add_argument("--size-limit", type=_positive_float, default=None, metavar="MB",
+                   help="export: refuse to make the folder larger than this (default 15)")
+
+    d = sub.add_parser("demo", help="render the analytic baseline (or a shipped agent) driving "
+                                    "an environment")
     d.add_argument("env_id", metavar="ID", help="e.g. ThreeWheel-v0 or wheelgym/ThreeWheel-v0")
     d.add_argument("--task", default=None, help="goal, track or navigate")
     d.add_argument("--action-mode", default=None,
                    help="the robot's action mode (dynamic robots: torque, velocity or "
                         "voltage; kinematic robots: their input modes)")
+    d.add_argument("--agent", default=None, metavar="NAME",
+                   help="drive with the shipped agent NAME (a config name; the env is made "
+                        "with its config's env kwargs) instead of the baseline")
     d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--episodes", type=_positive_int, default=1)
     d.add_argument("--out", type=Path, default=None,
@@ -221,7 +250,7 @@ def _parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
-    for sp in (m, t, e, u, b, d, v):
+    for sp in (m, t, e, u, b, r, d, v):
         _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
     return p
 
@@ -254,11 +283,25 @@ def _cmd_train(a: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(a: argparse.Namespace) -> int:
-    from wheelgym.agents.evaluate import evaluate_run
+    from wheelgym.agents.evaluate import evaluate_agent, evaluate_run
 
     t0 = time.perf_counter()
-    res = evaluate_run(a.run, episodes=a.episodes, seed=a.seed, video=a.video,
-                       out_dir=a.out, model="best" if a.best else "final")
+    if a.pretrained is not None:
+        if a.run is not None or a.best:
+            raise ValueError("--pretrained NAME takes no RUN folder and no --best (a shipped "
+                             "agent is one final model)")
+        from wheelgym.agents.pretrained import load_pretrained
+
+        agent, config = load_pretrained(a.pretrained)
+        name = Path(config.source).parent.name
+        out = a.out if a.out is not None else Path("runs/pretrained-eval") / name
+        res = evaluate_agent(agent, config, out, episodes=a.episodes, seed=a.seed,
+                             video=a.video, label=f"pretrained {name}")
+    elif a.run is None:
+        raise ValueError("give a RUN folder or --pretrained NAME")
+    else:
+        res = evaluate_run(a.run, episodes=a.episodes, seed=a.seed, video=a.video,
+                           out_dir=a.out, model="best" if a.best else "final")
     _print(res.table)
     for note in res.notes:
         _print(note)
@@ -366,6 +409,44 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_pretrained(a: argparse.Namespace) -> int:
+    from wheelgym.agents.pretrained import (
+        SIZE_LIMIT_MB,
+        available,
+        export_best,
+        pretrained_root,
+        read_card,
+    )
+
+    if a.action == "list":
+        given = [n for n, v in (("CONFIGS", a.configs), ("--csv", a.csv is not None),
+                                ("--size-limit", a.size_limit is not None)) if v]
+        if given:
+            raise ValueError(f"list takes no {', '.join(given)}")
+        names = available(a.root)
+        if not names:
+            _print(f"no pretrained agents in {pretrained_root(a.root)}")
+            return 0
+        for name in names:
+            card = read_card(name, a.root)
+            sc = card.get("scores", {})
+            succ = sc.get("agent_success")
+            _print(f"{name}: {str(card.get('algo', '?')).upper()}, seed {card.get('seed', '?')}, "
+                   f"{card.get('n_timesteps', '?')} steps, success "
+                   f"{'n/a' if succ is None else f'{100 * succ:.0f}%'}")
+        return 0
+    from wheelgym.agents.benchmark import DEFAULT_CSV
+
+    csv_path = a.csv if a.csv is not None else DEFAULT_CSV
+    limit = a.size_limit if a.size_limit is not None else SIZE_LIMIT_MB
+    written = export_best(csv_path, [str(c) for c in a.configs] or None, out_root=a.root,
+                          size_limit_mb=limit)
+    for path in written:
+        card = json.loads((path / "card.json").read_text())
+        _print(f"{card['config']}: seed {card['seed']} ({card['n_timesteps']} steps) -> {path}")
+    return 0
+
+
 def _check_writable_file(path: Path, what: str) -> None:
     """Refuse an output file path that cannot be written, before any work is done."""
     if path.is_dir():
@@ -398,6 +479,19 @@ def _cmd_demo(a: argparse.Namespace) -> int:
         kwargs["task"] = a.task
     if a.action_mode is not None:
         kwargs["action_mode"] = a.action_mode
+    agent = None
+    if a.agent is not None:
+        from wheelgym.agents.pretrained import load_pretrained
+
+        agent, config = load_pretrained(a.agent)
+        if config.env_id != env_id:
+            raise ValueError(f"agent {a.agent!r} was trained on {config.env_id}, not {env_id}; "
+                             f"run `wheelgym demo {config.env_id} --agent {a.agent}`")
+        clash = {k: v for k, v in kwargs.items() if config.env_kwargs.get(k) != v}
+        if clash:
+            raise ValueError(f"agent {a.agent!r} was trained with {config.env_kwargs}; drop "
+                             f"{', '.join('--' + k.replace('_', '-') for k in clash)}")
+        kwargs = dict(config.env_kwargs)
     if a.out is not None and a.out.suffix in (".gif", ".mp4"):
         _check_writable_file(a.out, "--out")
     elif a.out is not None and a.out.exists() and not a.out.is_dir():
@@ -406,7 +500,7 @@ def _cmd_demo(a: argparse.Namespace) -> int:
     human = a.out is None and _display_available()
     env = gym.make(env_id, render_mode="human" if human else "rgb_array", **kwargs)
     try:
-        policy = make_baseline(env)
+        policy = make_baseline(env) if agent is None else agent
         frames: list = []
         for k in range(a.episodes):
             ep = run_episode(env, policy, a.seed + k, record=False, render=not human)
@@ -447,6 +541,7 @@ _COMMANDS = {
     "evaluate": _cmd_evaluate,
     "tune": _cmd_tune,
     "benchmark": _cmd_benchmark,
+    "pretrained": _cmd_pretrained,
     "demo": _cmd_demo,
     "validate": _cmd_validate,
 }

@@ -9,9 +9,11 @@ Needs the ``train`` extra (``pip install -e ".[train]"``). Submodules:
 - :mod:`wheelgym.agents.train`: ``train(config)``, ``resume(run)``, run folders
 - :mod:`wheelgym.agents.benchmark`: the results CSV and table over configs and seeds
 - :mod:`wheelgym.agents.tune`: Optuna hyperparameter studies written back as configs
+- :mod:`wheelgym.agents.pretrained`: the shipped agents of ``agents/pretrained/`` (export, load)
 
 Layers, each importing only those before it: config <- common <- policies <- evaluate <- train
-<- benchmark, tune (``tests/agents/test_agents_layers.py`` keeps the graph free of cycles).
+<- benchmark, tune; benchmark <- pretrained (``tests/agents/test_agents_layers.py`` keeps the
+graph free of cycles).
 Nothing here is imported by ``import wheelgym``.
 """
 

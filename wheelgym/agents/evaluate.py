@@ -43,7 +43,7 @@ import gymnasium as gym
 import numpy as np
 
 from wheelgym.agents.common import make_single_env
-from wheelgym.agents.config import load_config
+from wheelgym.agents.config import TrainConfig, load_config
 from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
 
 __all__ = [
@@ -55,6 +55,7 @@ __all__ = [
     "format_markdown",
     "write_csv",
     "evaluate_run",
+    "evaluate_agent",
     "EvaluationResult",
     "applicable_metrics",
     "input_channels",
@@ -537,6 +538,11 @@ class EvaluationResult:
     notes: list[str]
 
 
+def _check_episodes(episodes: Any) -> None:
+    if not isinstance(episodes, int) or isinstance(episodes, bool) or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+
+
 def evaluate_run(
     run: str | Path,
     *,
@@ -553,10 +559,10 @@ def evaluate_run(
     Writes ``results.md``, ``results.csv``, ``episodes.csv``, ``trajectories.png``,
     ``torques.png`` (dynamic robots) or ``inputs.png`` (kinematic robots), and
     ``video_<policy>.mp4`` with ``video``, into ``out_dir`` (default ``<run>/eval``, made new if
-    it exists). ``model``: ``"final"`` (model.zip) or ``"best"``.
+    it exists). ``model``: ``"final"`` (model.zip) or ``"best"``. The run's agent and config
+    go to :func:`evaluate_agent`.
     """
-    if not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    _check_episodes(episodes)
     if model not in ("final", "best"):
         raise ValueError(f"model must be 'final' or 'best', got {model!r}")
     run = Path(run)
@@ -568,17 +574,42 @@ def evaluate_run(
     if not (run / f"{stem}.zip").is_file():
         raise ValueError(f"{run}: no {stem}.zip")
     agent = load_agent(run / f"{stem}.zip", config.algo, run / stats, device=config.device)
+    return evaluate_agent(agent, config, run / "eval" if out_dir is None else out_dir,
+                          episodes=episodes, seed=seed, video=video,
+                          include_random=include_random, include_baseline=include_baseline,
+                          label=f"run {run.name}")
 
-    out = _fresh_dir(run / "eval" if out_dir is None else Path(out_dir))
+
+def evaluate_agent(
+    agent: Any,
+    config: TrainConfig,
+    out_dir: str | Path,
+    *,
+    episodes: int = 50,
+    seed: int = 100_000,
+    video: bool = False,
+    include_random: bool = True,
+    include_baseline: bool = True,
+    label: str = "agent",
+) -> EvaluationResult:
+    """Evaluate a loaded agent (a ``predict`` policy, e.g. :func:`load_agent`'s) on its config's
+    env against the baseline and random on seeds ``seed .. seed+episodes-1``.
+
+    Writes the files listed in :func:`evaluate_run` into ``out_dir`` (made new if it exists and
+    holds files). ``label`` names the agent in ``results.md``'s title (e.g. ``run <name>``).
+    """
+    _check_episodes(episodes)
+    out = _fresh_dir(Path(out_dir))
     seeds = [seed + i for i in range(episodes)]
     notes: list[str] = []
     results: dict[str, list[Episode]] = {}
+    agent_name = getattr(agent, "name", "agent")
 
     env = make_single_env(config)
     try:
         metrics = applicable_metrics(env)
         kind, channel_names, channel_units = input_channels(env)
-        policies: dict[str, Any] = {agent.name: agent}
+        policies: dict[str, Any] = {agent_name: agent}
         if include_baseline:
             try:
                 policies["baseline"] = make_baseline(env)
@@ -598,8 +629,7 @@ def evaluate_run(
         "results.csv": out / "results.csv",
         "episodes.csv": out / "episodes.csv",
     }
-    header = (f"# {config.env_id} {config.env_kwargs}, {config.algo.upper()} run "
-              f"{run.name}\n\n")
+    header = f"# {config.env_id} {config.env_kwargs}, {config.algo.upper()} {label}\n\n"
     files["results.md"].write_text(header + table + "\n" + "".join(f"\n{n}" for n in notes))
     write_csv(files["results.csv"], rows, metrics)
     _write_episodes_csv(files["episodes.csv"], results, metrics)

@@ -1,0 +1,317 @@
+"""Shipped pretrained agents (``agents/pretrained/``): export from the benchmark CSV, load, act,
+``wheelgym evaluate --pretrained``, ``wheelgym demo --agent``, the README's plain-SB3 snippet,
+and every agent actually shipped."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import wheelgym.agents.pretrained as pretrained  # noqa: E402
+from wheelgym.agents.benchmark import COLUMNS, read_rows, run_jobs  # noqa: E402
+from wheelgym.agents.common import make_single_env  # noqa: E402
+from wheelgym.agents.config import configs_dir, load_config  # noqa: E402
+from wheelgym.agents.pretrained import (  # noqa: E402
+    ROOT_ENV,
+    SIZE_LIMIT_MB,
+    available,
+    best_row,
+    export_best,
+    load_pretrained,
+    pretrained_root,
+    read_card,
+)
+from wheelgym.cli import main  # noqa: E402
+
+#: The README snippet's agent: the tiny one trained here has its config (and name).
+NAME = "ThreeWheel-goal-velocity"
+README = Path(__file__).resolve().parents[2] / "README.md"
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory) -> SimpleNamespace:
+    """The real config, on a tiny budget: 2 seeds through the benchmark (real CSV rows, real
+    run folders), exported into a temporary ``agents/pretrained``."""
+    base = tmp_path_factory.mktemp("pretrained")
+    config = load_config(configs_dir() / f"{NAME}.yml").replace(
+        n_timesteps=512, n_envs=4, eval_freq=0, checkpoint_freq=0, eval_episodes=1)
+    path = base / f"{NAME}.yml"
+    config.dump(path)
+    csv_path = base / "training.csv"
+    summary = run_jobs([path], seeds=2, episodes=1, csv_path=csv_path, runs_root=base / "runs")
+    assert summary.written == 2 and not summary.failed
+    root = base / "agents" / "pretrained"
+    written = export_best(csv_path, out_root=root)
+    return SimpleNamespace(base=base, csv=csv_path, root=root, rows=read_rows(csv_path),
+                           written=written)
+
+
+def _acts(agent, config, steps: int = 5) -> None:
+    env = make_single_env(config)
+    try:
+        obs, _ = env.reset(seed=0)
+        for _ in range(steps):
+            action, _ = agent.predict(obs, deterministic=True)
+            action = np.asarray(action)
+            assert action.shape == env.action_space.shape
+            assert np.all(np.isfinite(action))
+            obs, *_ = env.step(action)
+    finally:
+        env.close()
+
+
+# --------------------------------------------------------------------------------------------
+# export, load, act
+# --------------------------------------------------------------------------------------------
+
+
+def test_export_copies_the_best_seed_with_its_card(bench):
+    assert bench.written == [bench.root / NAME]
+    assert available(bench.root) == [NAME]
+    best = best_row(bench.rows, NAME)
+    folder = bench.root / NAME
+    assert sorted(p.name for p in folder.iterdir()) == ["card.json", "config.yml", "model.zip",
+                                                        "vecnormalize.pkl"]
+    run = Path(best["run_dir"])
+    assert (folder / "model.zip").read_bytes() == (run / "model.zip").read_bytes()
+    assert (folder / "vecnormalize.pkl").read_bytes() == (run / "vecnormalize.pkl").read_bytes()
+    card = read_card(NAME, bench.root)
+    assert card == json.loads((folder / "card.json").read_text())
+    assert card["config"] == NAME and card["algo"] == "ppo" and card["normalize"] is True
+    assert card["env_id"] == "wheelgym/ThreeWheel-v0"
+    assert card["env_kwargs"] == {"task": "goal", "action_mode": "velocity"}
+    assert card["seed"] == int(best["seed"]) and card["n_timesteps"] == 512
+    assert card["csv"] == str(bench.csv) and card["finished_utc"] == best["finished_utc"]
+    for col in ("agent_success", "baseline_success", "agent_return", "baseline_return",
+                "agent_energy", "baseline_energy", "train_s"):
+        assert card["scores"][col] == pytest.approx(float(best[col]))
+    assert card["scores"]["agent_rms"] is None  # goal task: no RMS tracking error
+    assert card["files"]["model.zip"] == (folder / "model.zip").stat().st_size
+    assert not [p for p in bench.root.iterdir() if p.name.startswith(".")]  # no leftovers
+
+
+def test_best_seed_order_success_then_rms_then_return():
+    def row(seed, succ, rms, ret, steps=1000):
+        return {"config": "c", "seed": str(seed), "n_timesteps": str(steps),
+                "agent_success": succ, "agent_rms": rms, "agent_return": ret}
+
+    rows = [row(0, "0.9", "", "50"), row(1, "1", "", "10"), row(2, "1", "", "12")]
+    assert best_row(rows, "c")["seed"] == "2"  # success, then return
+    rows = [row(0, "1", "0.02", "10"), row(1, "1", "0.01", "5"), row(2, "0.5", "0.001", "99")]
+    assert best_row(rows, "c")["seed"] == "1"  # success, then the lower RMS before return
+    rows = [row(0, "1", "", "10"), row(1, "1", "", "10")]
+    assert best_row(rows, "c")["seed"] == "0"  # a full tie: the lower seed
+    rows = [row(0, "0.5", "", "1", steps=100_000), row(1, "1", "", "9", steps=10_000)]
+    assert best_row(rows, "c")["seed"] == "0"  # only the largest budget competes
+    rows = [row(0, "", "", "3"), row(1, "0", "", "-3")]
+    assert best_row(rows, "c")["seed"] == "1"  # a missing score ranks last
+
+
+def test_load_pretrained_acts_on_its_env(bench):
+    agent, config = load_pretrained(NAME, bench.root)
+    assert agent.obs_norm is not None and agent.obs_norm.training is False
+    assert config.env_id == "wheelgym/ThreeWheel-v0" and config.algo == "ppo"
+    _acts(agent, config)
+    agent2, _ = load_pretrained(f"configs/{NAME}.yml", bench.root)  # a config path: its stem
+    assert agent2.name == agent.name
+
+
+def test_unknown_name_lists_the_available_ones(bench, tmp_path):
+    with pytest.raises(ValueError, match=rf"no pretrained agent 'Nope'.*{NAME}"):
+        load_pretrained("Nope", bench.root)
+    with pytest.raises(ValueError, match="none shipped yet"):
+        load_pretrained(NAME, tmp_path)
+    with pytest.raises(ValueError, match="no pretrained agent"):
+        load_pretrained("../runs", bench.root)
+
+
+def test_missing_root_is_a_clear_error(monkeypatch, tmp_path):
+    monkeypatch.delenv(ROOT_ENV, raising=False)
+    monkeypatch.setattr(pretrained, "_REPO", tmp_path)  # as in a non-editable install
+    with pytest.raises(ValueError, match="pip install -e"):
+        pretrained_root()
+    with pytest.raises(ValueError, match="pip install -e"):
+        available()
+    monkeypatch.setenv(ROOT_ENV, str(tmp_path / "nowhere"))
+    with pytest.raises(ValueError, match="does not exist"):
+        available()
+    monkeypatch.setenv(ROOT_ENV, str(tmp_path))
+    assert pretrained_root() == tmp_path and available() == []
+
+
+def test_size_limit_is_refused_before_writing(bench, tmp_path):
+    out = tmp_path / "agents"
+    with pytest.raises(ValueError, match="over the 0.01 MB limit"):
+        export_best(bench.csv, [NAME], out_root=out, size_limit_mb=0.01)
+    assert not out.exists()
+    # Agents kept in the folder count too.
+    out.mkdir()
+    (out / "Other").mkdir()
+    (out / "Other" / "model.zip").write_bytes(b"\0" * 200_000)
+    size = sum(p.stat().st_size for p in (bench.root / NAME).iterdir())
+    with pytest.raises(ValueError, match="over the"):
+        export_best(bench.csv, [NAME], out_root=out, size_limit_mb=(size + 100_000) / 1e6)
+    assert sorted(p.name for p in out.iterdir()) == ["Other"]
+
+
+def test_export_errors(bench, tmp_path):
+    with pytest.raises(ValueError, match=rf"configs \['Nope'\] have no rows.*{NAME}"):
+        export_best(bench.csv, ["Nope"], out_root=tmp_path / "a")
+    # A row whose run folder is gone: refused, not silently replaced by another seed.
+    moved = tmp_path / "moved.csv"
+    with moved.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(COLUMNS))
+        w.writeheader()
+        for r in bench.rows:
+            w.writerow({**r, "run_dir": str(tmp_path / "gone" / Path(r["run_dir"]).name)})
+    with pytest.raises(ValueError, match="is the run folder on this machine"):
+        export_best(moved, out_root=tmp_path / "b")
+    assert not (tmp_path / "b").exists()
+
+
+def test_export_replaces_its_folder_and_keeps_the_others(bench, tmp_path):
+    out = tmp_path / "agents"
+    (out / "Other").mkdir(parents=True)
+    (out / NAME).mkdir()
+    (out / NAME / "stale.txt").write_text("old")
+    assert export_best(bench.csv, [f"configs/{NAME}.yml"], out_root=out) == [out / NAME]
+    assert not (out / NAME / "stale.txt").exists() and (out / NAME / "model.zip").is_file()
+    assert sorted(p.name for p in out.iterdir()) == sorted([NAME, "Other"])
+
+
+# --------------------------------------------------------------------------------------------
+# the command line
+# --------------------------------------------------------------------------------------------
+
+
+def test_cli_pretrained_export_and_list(bench, tmp_path, capsys):
+    out = tmp_path / "agents"
+    assert main(["pretrained", "export", NAME, "--csv", str(bench.csv), "--root", str(out)]) == 0
+    assert f"{NAME}: seed" in capsys.readouterr().out
+    assert available(out) == [NAME]
+    assert main(["pretrained", "list", "--root", str(out)]) == 0
+    assert f"{NAME}: PPO, seed" in capsys.readouterr().out
+    assert main(["pretrained", "list", "--root", str(tmp_path)]) == 0
+    assert "no pretrained agents" in capsys.readouterr().out
+    assert main(["pretrained", "export", "Nope", "--csv", str(bench.csv), "--root",
+                 str(out)]) == 2
+    assert "have no rows" in capsys.readouterr().err
+    assert main(["pretrained", "export", NAME, "--csv", str(bench.csv), "--root", str(out),
+                 "--size-limit", "0.001"]) == 2
+    assert "limit" in capsys.readouterr().err
+
+
+def test_cli_evaluate_pretrained(bench, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(ROOT_ENV, str(bench.root))
+    monkeypatch.chdir(tmp_path)
+    assert main(["evaluate", "--pretrained", NAME, "--episodes", "1"]) == 0
+    out = tmp_path / "runs" / "pretrained-eval" / NAME
+    text = (out / "results.md").read_text()
+    assert f"pretrained {NAME}" in text
+    for policy in ("agent (PPO)", "baseline", "random"):
+        assert f"| {policy} |" in text
+    assert (out / "results.csv").is_file() and (out / "trajectories.png").is_file()
+    capsys.readouterr()
+    assert main(["evaluate", "--pretrained", "Nope"]) == 2
+    assert "no pretrained agent 'Nope'" in capsys.readouterr().err
+    assert main(["evaluate", str(tmp_path), "--pretrained", NAME]) == 2
+    assert "takes no RUN" in capsys.readouterr().err
+    assert main(["evaluate"]) == 2
+    assert "give a RUN folder or --pretrained" in capsys.readouterr().err
+
+
+def test_cli_demo_with_an_agent(bench, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv(ROOT_ENV, str(bench.root))
+    gif = tmp_path / "d.gif"
+    assert main(["demo", "SkidSteer-v0", "--agent", NAME, "--out", str(gif)]) == 2
+    assert "trained on wheelgym/ThreeWheel-v0, not wheelgym/SkidSteer-v0" in \
+        capsys.readouterr().err
+    assert main(["demo", "ThreeWheel-v0", "--agent", NAME, "--task", "track",
+                 "--out", str(gif)]) == 2
+    assert "drop --task" in capsys.readouterr().err
+    import gymnasium as gym
+
+    from wheelgym.agents import evaluate
+    from wheelgym.agents.policies import AgentPolicy
+
+    made, policies = [], []
+    real_make, real_run = gym.make, evaluate.run_episode
+
+    def short_make(env_id, **kwargs):  # 20 steps instead of 500: a short GIF
+        made.append((env_id, kwargs))
+        return real_make(env_id, max_episode_steps=20, **kwargs)
+
+    def spy_run(env, policy, *args, **kwargs):
+        policies.append(policy)
+        return real_run(env, policy, *args, **kwargs)
+
+    monkeypatch.setattr(gym, "make", short_make)
+    monkeypatch.setattr(evaluate, "run_episode", spy_run)
+    assert main(["demo", "ThreeWheel-v0", "--agent", NAME, "--action-mode", "velocity",
+                 "--out", str(gif)]) == 0
+    assert "episode 0: seed 0, 20 steps" in capsys.readouterr().out
+    assert made == [("wheelgym/ThreeWheel-v0", {"render_mode": "rgb_array", "task": "goal",
+                                                "action_mode": "velocity"})]
+    assert len(policies) == 1 and isinstance(policies[0], AgentPolicy)
+    assert gif.stat().st_size > 0
+
+
+# --------------------------------------------------------------------------------------------
+# the README's plain-SB3 snippet
+# --------------------------------------------------------------------------------------------
+
+
+def test_readme_snippet_loads_an_exported_agent(bench):
+    blocks = re.findall(r"^```python\n(.*?)^```", README.read_text(encoding="utf-8"),
+                        flags=re.MULTILINE | re.DOTALL)
+    snippet = [b for b in blocks if "agents/pretrained/" in b]
+    assert len(snippet) == 1 and f"agents/pretrained/{NAME}" in snippet[0]
+    assert "wheelgym.agents" not in snippet[0]  # plain SB3 and Gymnasium
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "MPLBACKEND": "Agg"}
+    r = subprocess.run([sys.executable, "-c", snippet[0]], cwd=bench.base, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "success:" in r.stdout
+
+
+# --------------------------------------------------------------------------------------------
+# the agents actually shipped (none until they are exported into agents/pretrained/)
+# --------------------------------------------------------------------------------------------
+
+
+SHIPPED_ROOT = pretrained._REPO / "agents" / "pretrained"
+
+
+def _shipped() -> list[str]:
+    try:
+        return available(SHIPPED_ROOT)
+    except ValueError:  # no folder at all: nothing shipped
+        return []
+
+
+@pytest.mark.parametrize("name", _shipped())
+def test_every_shipped_agent_loads_and_acts(name):
+    agent, config = load_pretrained(name, SHIPPED_ROOT)
+    assert Path(name).name == name
+    card = read_card(name, SHIPPED_ROOT)
+    assert card.get("config") == name and card.get("algo") == config.algo
+    assert card.get("env_id") == config.env_id
+    _acts(agent, config)
+
+
+def test_shipped_folder_is_under_the_size_limit():
+    if not SHIPPED_ROOT.is_dir():
+        pytest.skip("no agents/pretrained folder")
+    total = sum(p.stat().st_size for p in SHIPPED_ROOT.rglob("*") if p.is_file())
+    assert total <= SIZE_LIMIT_MB * 1e6

@@ -1,0 +1,287 @@
+"""Shipped trained agents: ``agents/pretrained/<CONFIG_NAME>/`` in the repository.
+
+One folder per config (named like its file in ``configs/``, without ``.yml``), exported from
+the benchmark's results CSV by :func:`export_best` (``wheelgym pretrained export``):
+
+==================== ==========================================================================
+file                 content
+==================== ==========================================================================
+model.zip            the best seed's final model (Stable-Baselines3 ``<Algo>.load``)
+vecnormalize.pkl     its ``VecNormalize`` statistics (configs with ``normalize`` only)
+config.yml           the run's config as used (``load_config``): env id, env kwargs, algorithm
+card.json            config name, algorithm, env id and kwargs, seed, training steps, the
+                     benchmark row's scores (agent, baseline and random success, RMS error,
+                     return, energy; train time), the CSV it came from and the dates
+==================== ==========================================================================
+
+The best seed of a config: highest ``agent_success``, then lowest ``agent_rms`` (where the
+task reports one), then highest ``agent_return``, then the lowest seed; only the rows with the
+config's largest training budget in the CSV compete (``--quick`` or ``--budget`` rows do not).
+Which configs to export (those that met their targets) is the caller's choice. The whole folder
+is kept under :data:`SIZE_LIMIT_MB`; an export that would pass it is refused before anything is
+written.
+
+:func:`load_pretrained` returns the same :class:`~wheelgym.agents.policies.AgentPolicy` as
+:func:`~wheelgym.agents.policies.load_agent` (observation statistics applied) with its
+:class:`~wheelgym.agents.config.TrainConfig`. The folder is found next to the package
+(source checkout or editable install); :data:`ROOT_ENV` overrides it, and every function
+takes a ``root``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+from collections.abc import Sequence
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from wheelgym.agents.benchmark import read_rows
+from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.policies import AgentPolicy, load_agent
+
+__all__ = [
+    "ROOT_ENV",
+    "SIZE_LIMIT_MB",
+    "pretrained_root",
+    "available",
+    "load_pretrained",
+    "read_card",
+    "export_best",
+    "best_row",
+]
+
+#: Environment variable naming another folder of pretrained agents (tests, private agents).
+ROOT_ENV = "WHEELGYM_PRETRAINED"
+
+#: Size limit of the whole shipped folder, in MB (10**6 bytes).
+SIZE_LIMIT_MB = 15.0
+
+CARD = "card.json"
+MODEL = "model.zip"
+STATS = "vecnormalize.pkl"
+CONFIG = "config.yml"
+
+#: Benchmark CSV columns copied into card.json as numbers (empty cells: ``null``).
+CARD_SCORES: tuple[str, ...] = (
+    "agent_success", "baseline_success", "random_success",
+    "agent_rms", "baseline_rms",
+    "agent_return", "baseline_return", "random_return",
+    "agent_energy", "baseline_energy",
+    "train_s", "steps_to_baseline",
+)
+
+_REPO = Path(__file__).resolve().parents[2]
+
+
+def _default_root() -> Path:
+    """``$WHEELGYM_PRETRAINED``, else the repository's ``agents/pretrained`` (not checked)."""
+    override = os.environ.get(ROOT_ENV)
+    return Path(override) if override else _REPO / "agents" / "pretrained"
+
+
+def pretrained_root(root: str | Path | None = None) -> Path:
+    """The folder of pretrained agents: ``root``, ``$WHEELGYM_PRETRAINED`` or the repository's
+    ``agents/pretrained`` next to the package. ``ValueError`` if it is not a folder."""
+    path = Path(root) if root is not None else _default_root()
+    if path.is_dir():
+        return path
+    if root is None and not os.environ.get(ROOT_ENV):
+        raise ValueError(
+            f"no pretrained agents folder at {str(path)!r}: the agents ship in the source "
+            f"repository (agents/pretrained/), so install wheelgym from a clone with "
+            f"`pip install -e .`, or set {ROOT_ENV} to a folder of agents")
+    raise ValueError(f"pretrained agents folder {str(path)!r} does not exist")
+
+
+def available(root: str | Path | None = None) -> list[str]:
+    """Sorted names of the agents in the folder (sub-folders holding model.zip and config.yml)."""
+    base = pretrained_root(root)
+    return sorted(p.name for p in base.iterdir()
+                  if p.is_dir() and (p / MODEL).is_file() and (p / CONFIG).is_file())
+
+
+def _name(name: str) -> str:
+    """A config name; a config path (``configs/X.yml``) stands for its stem."""
+    text = str(name)
+    return Path(text).stem if text.endswith((".yml", ".yaml")) else text
+
+
+def _folder(name: str, root: str | Path | None) -> Path:
+    names = available(root)
+    key = _name(name)
+    if key not in names:
+        raise ValueError(f"no pretrained agent {name!r}; available: "
+                         f"{names or '(none shipped yet)'} in {pretrained_root(root)}")
+    return pretrained_root(root) / key
+
+
+def read_card(name: str, root: str | Path | None = None) -> dict[str, Any]:
+    """The agent's card.json (``{}`` when it has none)."""
+    path = _folder(name, root) / CARD
+    if not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise ValueError(f"{path}: unreadable card: {e}") from None
+
+
+def load_pretrained(name: str, root: str | Path | None = None,
+                    device: str = "cpu") -> tuple[AgentPolicy, TrainConfig]:
+    """The shipped agent ``name`` (a config name) with its statistics, and its config.
+
+    ``ValueError`` listing the available names when there is no such agent.
+    """
+    folder = _folder(name, root)
+    config = load_config(folder / CONFIG)
+    if config.normalize is not None and not (folder / STATS).is_file():
+        raise ValueError(f"{folder}: the config normalises observations but {STATS} is missing")
+    agent = load_agent(folder / MODEL, config.algo, folder / STATS, device=device)
+    return agent, config
+
+
+# --------------------------------------------------------------------------------------------
+# export
+# --------------------------------------------------------------------------------------------
+
+
+def _num(text: Any) -> float | None:
+    if text is None or str(text).strip() == "":
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _rank(row: dict[str, str]) -> tuple[float, float, float, float]:
+    """Larger is better: success, then lower RMS, then return, then the lower seed."""
+    succ, rms, ret = (_num(row.get(c)) for c in ("agent_success", "agent_rms", "agent_return"))
+    return (-math.inf if succ is None else succ,
+            -math.inf if rms is None else -rms,
+            -math.inf if ret is None else ret,
+            -float(row["seed"]))
+
+
+def best_row(rows: Sequence[dict[str, str]], config: str) -> dict[str, str]:
+    """The best seed's row of ``config`` among its rows with the largest ``n_timesteps``."""
+    mine = [r for r in rows if r["config"] == config]
+    if not mine:
+        raise ValueError(f"no rows of config {config!r}")
+    budget = max(float(r["n_timesteps"]) for r in mine)
+    return max((r for r in mine if float(r["n_timesteps"]) == budget), key=_rank)
+
+
+def _size(path: Path) -> int:
+    if path.is_file():
+        return path.stat().st_size
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the repository when inside it (cards stay machine-independent)."""
+    try:
+        return str(path.resolve().relative_to(_REPO))
+    except ValueError:
+        return str(path)
+
+
+def export_best(
+    csv_path: str | Path,
+    configs: Sequence[str | Path] | None = None,
+    out_root: str | Path | None = None,
+    size_limit_mb: float = SIZE_LIMIT_MB,
+) -> list[Path]:
+    """Copy the best seed's run of each config of the results CSV into ``out_root``.
+
+    ``configs``: names or config paths (their stems) to export (default: every config in the
+    CSV). ``out_root``: default ``$WHEELGYM_PRETRAINED`` or the repository's
+    ``agents/pretrained`` (created). Per config: the run's final ``model.zip``,
+    ``vecnormalize.pkl`` (when the config normalises), ``config.yml``, and a ``card.json``
+    from the CSV row; an existing folder of that name is replaced, others are kept. Refuses
+    (``ValueError``, nothing written) when a run folder lacks a file or the folder's total
+    (kept agents plus the new ones) would exceed ``size_limit_mb`` MB. Returns the folders.
+    """
+    csv_path = Path(csv_path)
+    rows = read_rows(csv_path)
+    known = sorted({r["config"] for r in rows})
+    names = [_name(str(c)) for c in configs] if configs else known
+    bad = [n for n in names if n not in known]
+    if bad:
+        raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: {known}")
+    names = list(dict.fromkeys(names))
+    root = Path(out_root) if out_root is not None else _default_root()
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"pretrained root {str(root)!r} exists and is not a folder")
+
+    plans: list[tuple[str, dict[str, str], TrainConfig, dict[str, Path]]] = []
+    for name in names:
+        row = best_row(rows, name)
+        run = Path(row.get("run_dir") or "")
+        where = f"{name} seed {row['seed']} (run folder {str(run)!r})"
+        if not row.get("run_dir") or not (run / CONFIG).is_file():
+            raise ValueError(f"{where}: no {CONFIG}; is the run folder on this machine?")
+        config = load_config(run / CONFIG)
+        files = {MODEL: run / MODEL, CONFIG: run / CONFIG}
+        if config.normalize is not None:
+            files[STATS] = run / STATS
+        missing = [f for f, p in files.items() if not p.is_file()]
+        if missing:
+            raise ValueError(f"{where}: missing {missing}")
+        plans.append((name, row, config, files))
+
+    new_bytes = sum(_size(p) for _, _, _, files in plans for p in files.values())
+    kept = ([p for p in root.iterdir() if p.name not in names and not p.name.startswith(".")]
+            if root.is_dir() else [])
+    total = new_bytes + sum(_size(p) for p in kept) + 4096 * len(plans)  # cards
+    limit = size_limit_mb * 1e6
+    if total > limit:
+        raise ValueError(f"exporting {names} would make {root} {total / 1e6:.2f} MB, over the "
+                         f"{size_limit_mb:g} MB limit; export fewer configs")
+
+    root.mkdir(parents=True, exist_ok=True)
+    now = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    out: list[Path] = []
+    for name, row, config, files in plans:
+        tmp = root / f".{name}.tmp-{os.getpid()}"
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir()
+        try:
+            for fname, src in files.items():
+                shutil.copyfile(src, tmp / fname)
+            card: dict[str, Any] = {
+                "config": name,
+                "algo": config.algo,
+                "env_id": config.env_id,
+                "env_kwargs": config.env_kwargs,
+                "normalize": config.normalize is not None,
+                "seed": int(float(row["seed"])),
+                "n_timesteps": int(float(row["n_timesteps"])),
+                "episodes": int(float(row.get("episodes") or 0)),
+                "scores": {c: _num(row.get(c)) for c in CARD_SCORES},
+                "csv": _shown(csv_path),
+                "run_dir": row.get("run_dir", ""),
+                "finished_utc": row.get("finished_utc", ""),
+                "exported_utc": now,
+                "files": {f: (tmp / f).stat().st_size for f in files},
+            }
+            (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
+            dest = root / name
+            if dest.exists():
+                old = root / f".{name}.old-{os.getpid()}"
+                os.replace(dest, old)
+                os.replace(tmp, dest)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(tmp, dest)
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
+        out.append(dest)
+    return out
