@@ -47,10 +47,13 @@ ones); ``info["reward_terms"]`` holds the weighted terms and they add up to the 
 | position       | track           | -distance to the reference (m)                   | 1.0    |
 | heading        | track           | -abs(dyaw) / pi                                  | 0.1    |
 | effort         | all             | -mean((tau / tau_max)^2) (normalised commands)   | 0.01   |
-| internal_force | all (ThreeWheel)| -norm of the torques' null-space part (N·m)      | 0.01   |
+| internal_force | all (ThreeWheel)| -norm(P tau) / norm(tau_max): the torques'     | 0.2    |
+|                |                 | null-space part over the torque limits (0..1)    |        |
 | success        | goal, navigate  | +1 on success                                    | 10     |
 | overspeed      | all             | -1 beyond the speed limits or on numerical failure | 10   |
 | collision      | navigate        | -1 when the footprint circle touches an obstacle | 10     |
+| proximity      | navigate        | -clip(1 - gap / 0.5 m, 0, 1); gap: footprint to  | 0      |
+|                |                 | the nearest obstacle (exact, not the rays)       |        |
 | lost           | track           | -1 when more than 1 m from the reference         | 10     |
 
 ## Starting State

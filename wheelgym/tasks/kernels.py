@@ -4,7 +4,7 @@ Pure functions of the batch: row i reads only row i, so a batch of N gives each 
 N = 1. Term columns (the tasks name a subset; unused columns have weight 0):
 
 * goal/navigate: 0 progress, 1 heading, 2 effort, 3 internal_force, 4 success, 5 overspeed,
-  6 collision;
+  6 collision, 7 proximity;
 * track: 0 position, 1 heading, 2 effort, 3 internal_force, 4 overspeed, 5 lost.
 """
 
@@ -51,7 +51,7 @@ def _norm2(x, y):  # pragma: no cover - compiled
 
 # Block layouts (wheelgym.envs.robots.body.layout): pose at 2m+2, twist at 2m+5, eff 2m+1,
 # xf 2m+8, reward 2m+9, err 2m+10, feat from 2m+11; flags F: 0 sat, 1 ok, 2 term, 3 succ,
-# 4 collision. cfg (goal): tol_p, tol_y, vmax, wmax, pclip, vclip, wclip;
+# 4 collision. cfg (goal): tol_p, tol_y, vmax, wmax, pclip, vclip, wclip, radius, d_safe;
 # cfg (track): vmax, wmax, lost, tol_p, pclip, vclip, wclip.
 
 
@@ -73,7 +73,7 @@ def _overspeed(ok, b, o, vmax, wmax):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+def _goal_row(i, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
               terms):  # pragma: no cover - compiled
     """Row i of :func:`k_goal`."""
     o = 2 * m  # energy column; pose at o + 2
@@ -98,6 +98,10 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
     t[4] = W[4] if win else 0.0
     t[5] = -W[5] if over else 0.0
     t[6] = -W[6] if hit else 0.0
+    if W[7] != 0.0:  # proximity: the footprint's gap to the nearest obstacle below d_safe
+        t[7] = -W[7] * min(max(1.0 - (clear[i] - cfg[7]) / cfg[8], 0.0), 1.0)
+    else:
+        t[7] = 0.0
     r = 0.0
     for k in range(t.shape[0]):
         r += t[k]
@@ -109,23 +113,23 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
 
 
 @njit(cache=True)
-def k_goal(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+def k_goal(rows, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
            terms):  # pragma: no cover - compiled
-    """Goal and navigate tasks: observation, the 7 term columns, reward, end, success, dist,
+    """Goal and navigate tasks: observation, the 8 term columns, reward, end, success, dist,
     for the rows listed in ``rows`` (the others are not touched).
 
     Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose
     gets the same bits again)."""
     for r in range(rows.shape[0]):
-        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs, terms)
+        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs, terms)
 
 
 @njit(cache=True, parallel=True)
-def k_goal_par(rows, B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs,
+def k_goal_par(rows, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
                terms):  # pragma: no cover - compiled
     """:func:`k_goal` with the rows spread over numba's threads (large batches; same bits)."""
     for r in prange(rows.shape[0]):
-        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, cfg, fclip, W, obs, terms)
+        _goal_row(rows[r], B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs, terms)
 
 
 @njit(cache=True)

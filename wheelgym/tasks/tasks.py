@@ -63,6 +63,17 @@ def _per_row(key: str, value: Any, n: int, one, what: str) -> list[Any]:
     return [one(value)] * n
 
 
+def internal_force_scale(core: BatchView) -> float:
+    """The internal-force reward term's scale (N·m): the norm of the nominal robot's torque
+    limits ``|tau_max|``, the largest ``|P tau|`` a torque within the limits can have (the
+    projection ``P`` of TW-6 does not lengthen a vector). The term is ``|P tau| / |tau_max|``,
+    in [0, 1] whatever the motors, so one weight serves any parameter set."""
+    tau_max = getattr(core.base_params, "tau_max", None)
+    if tau_max is None:
+        return 1.0
+    return float(np.sqrt(np.sum(np.square(np.asarray(tau_max, dtype=np.float64)))))
+
+
 class Task:
     """Base class: term names, default weights, observation layout and bounds."""
 
@@ -90,6 +101,8 @@ class Task:
             w[k] = v
         self.weights = {k: w[k] for k in names}
         self.W = np.array([self.weights.get(c, 0.0) for c in self.columns])
+        if "internal_force" in names:  # the term is |P tau| / |tau_max| (0..1), see below
+            self.W[self.columns.index("internal_force")] /= internal_force_scale(core)
         self.term_index = np.array([self.columns.index(k) for k in names])
         self.names = names
 
@@ -154,15 +167,18 @@ class GoalTask(Task):
 
     name = "goal"
     columns = ("progress", "heading", "effort", "internal_force", "success", "overspeed",
-               "collision")
-    default_weights = {"progress": 1.0, "heading": 0.02, "effort": 0.01, "internal_force": 0.01,
-                       "success": 10.0, "overspeed": 10.0, "collision": 10.0}
+               "collision", "proximity")
+    default_weights = {"progress": 1.0, "heading": 0.02, "effort": 0.01, "internal_force": 0.2,
+                       "success": 10.0, "overspeed": 10.0, "collision": 10.0, "proximity": 0.0}
     #: Position (m) and heading (rad) tolerances of success.
     tol_pos: float = 0.1
     tol_yaw: float = 0.2
     #: Start-to-goal distance range (m).
     goal_dist: tuple[float, float] = (1.0, 3.0)
     n_rays = 0
+    #: Gap (m) between the footprint and the nearest obstacle below which the ``proximity``
+    #: term (navigate) grows linearly from 0 to 1 at contact.
+    d_safe: float = 0.5
 
     def __init__(self, core: BatchView, weights: Mapping[str, float] | None) -> None:
         super().__init__(core, weights)
@@ -170,8 +186,10 @@ class GoalTask(Task):
         self.goal = np.zeros((N, 3))
         self.prev = np.zeros(N)
         self.ranges = np.zeros((N, self.n_rays))
+        #: distance from each robot's centre to the nearest obstacle (m; navigate's sensing)
+        self.clear = np.zeros(N)
         self.cfg = np.array([self.tol_pos, self.tol_yaw, core.spec.v_max, core.spec.w_max,
-                             POS_CLIP, core.vclip, core.wclip])
+                             POS_CLIP, core.vclip, core.wclip, core.spec.radius, self.d_safe])
         # the whole batch over numba's threads where the core uses them (same bits per row)
         self._threaded = core.threaded
         self._k_all = k_goal_par if core.threaded else k_goal
@@ -184,7 +202,7 @@ class GoalTask(Task):
         self._k_all = k_goal_par if self._threaded else k_goal
 
     def term_names(self, spec) -> tuple[str, ...]:
-        return tuple(n for n in super().term_names(spec) if n != "collision")
+        return tuple(n for n in super().term_names(spec) if n not in ("collision", "proximity"))
 
     def obs_layout(self) -> tuple[list[str], np.ndarray]:
         tail, tnames = self._tail_bounds()
@@ -216,7 +234,7 @@ class GoalTask(Task):
         c = self.core
         k = self._k_all if rows is None else k_goal
         k(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
-          self.ranges, self.cfg, c.fclip, self.W, c.obs, c.terms)
+          self.ranges, self.clear, self.cfg, c.fclip, self.W, c.obs, c.terms)
 
     def target_pose(self) -> np.ndarray:
         return self.goal
@@ -386,7 +404,6 @@ class NavigateTask(GoalTask):
         self.nc = np.zeros(N, dtype=np.int64)
         self.segs = np.zeros((N, self.arena.max_segments, 4))
         self.ns = np.zeros(N, dtype=np.int64)
-        self.clear = np.zeros(N)
         self.spaces: list[Any] = [None] * N
         self.worlds: list[Any] = [None] * N
 
@@ -529,7 +546,7 @@ class TrackTask(Task):
 
     name = "track"
     columns = ("position", "heading", "effort", "internal_force", "overspeed", "lost")
-    default_weights = {"position": 1.0, "heading": 0.1, "effort": 0.01, "internal_force": 0.01,
+    default_weights = {"position": 1.0, "heading": 0.1, "effort": 0.01, "internal_force": 0.2,
                        "overspeed": 10.0, "lost": 10.0}
     #: Preview offsets (control steps) of the reference points in the observation.
     preview_steps = np.array([10, 20, 30], dtype=np.int64)

@@ -13,7 +13,7 @@ the task kernels (:mod:`wheelgym.tasks.kernels`) read it given ``m``, the model'
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -90,6 +90,8 @@ class BatchView(Protocol):
     #: Observation ``(N, obs_dim)`` float32 and reward terms ``(N, n_columns)``, task-written.
     obs: np.ndarray
     terms: np.ndarray
+    #: The nominal parameters (the model's Params dataclass; rows may draw others).
+    base_params: Any
 
     @property
     def spec(self) -> RobotConstants:
