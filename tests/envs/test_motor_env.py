@@ -129,14 +129,18 @@ def test_bad_motor_values():
         make("SkidSteer", params={"motor": "dc"})
 
 
-def test_deepcopy_exact():
-    env = make("SkidSteer", motor="dc")
+@pytest.mark.parametrize("robot, kwargs", [("SkidSteer", {"motor": "dc"}),
+                                           ("CasterAGV", {"action_mode": "voltage"})])
+def test_deepcopy_exact(robot, kwargs):
+    env = make(robot, **kwargs)
     env.reset(seed=3)
+    n = env.action_space.shape[0]
     rng = np.random.default_rng(0)
     for _ in range(3):
-        env.step(rng.uniform(-1, 1, 4).astype(np.float32))
+        env.step(rng.uniform(-1, 1, n).astype(np.float32))
     twin = copy.deepcopy(env)
     assert twin.unwrapped.core.dc
+    assert twin.unwrapped.core.voltage == (kwargs.get("action_mode") == "voltage")
     for _ in range(30):
-        a = rng.uniform(-1, 1, 4).astype(np.float32)
+        a = rng.uniform(-1, 1, n).astype(np.float32)
         assert_same(env.step(a), twin.step(a), "step")

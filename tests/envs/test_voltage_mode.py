@@ -9,14 +9,11 @@ model through the same RK4 stages.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
 from tests.envs.conftest import make
-from tests.vector.conftest import assert_same
 from tests.vector.test_vector_env import NEXT, make_pair, rollout_equal
 from wheelgym.envs.baseline import baseline, voltage_for_torque
 from wheelgym.envs.config import EnvConfig
@@ -249,17 +246,7 @@ def test_vector_matches_single_env_randomized():
     rollout_equal(vec, ref, 12)
 
 
-def test_deepcopy_exact():
-    env = make("CasterAGV", action_mode="voltage")
-    env.reset(seed=3)
-    rng = np.random.default_rng(0)
-    for _ in range(3):
-        env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-    twin = copy.deepcopy(env)
-    assert twin.unwrapped.core.voltage
-    for _ in range(30):
-        a = rng.uniform(-1, 1, 2).astype(np.float32)
-        assert_same(env.step(a), twin.step(a), "step")
+# deepcopy in voltage mode: tests/envs/test_motor_env.py::test_deepcopy_exact
 
 
 @pytest.mark.slow

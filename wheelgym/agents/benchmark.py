@@ -115,8 +115,9 @@ def _fmt(v: float | None) -> str:
     return "" if v is None else f"{v:.6g}"
 
 
-def _num(text: str | None) -> float | None:
-    if text is None or text.strip() == "":
+def parse_number(text: Any) -> float | None:
+    """A CSV cell as a finite float, or None (empty, not a number, or not finite)."""
+    if text is None or str(text).strip() == "":
         return None
     try:
         v = float(text)
@@ -178,15 +179,15 @@ def steps_to_baseline(eval_csv: str | Path, success: float | None, rms: float | 
         return None
     with path.open(newline="") as f:
         for row in csv.DictReader(f):
-            steps = _num(row.get("timesteps"))
+            steps = parse_number(row.get("timesteps"))
             if steps is None:
                 continue
             if rms is not None:
-                err = _num(row.get("rms_tracking_error"))
+                err = parse_number(row.get("rms_tracking_error"))
                 if err is not None and err <= RMS_FACTOR * rms:
                     return int(steps)
             elif success is not None:
-                rate = _num(row.get("success_rate"))
+                rate = parse_number(row.get("success_rate"))
                 if rate is not None and 100 * rate >= 100 * success - SUCCESS_POINTS - 1e-9:
                     return int(steps)
     return None
@@ -292,7 +293,8 @@ def read_rows(path: str | Path) -> list[dict[str, str]]:
         if missing:
             raise ValueError(f"{path}: not a results CSV (no columns {missing})")
         return [r for r in reader if None not in r and None not in r.values() and r.get("config")
-                and _num(r.get("n_timesteps")) is not None and _num(r.get("seed")) is not None]
+                and parse_number(r.get("n_timesteps")) is not None
+                and parse_number(r.get("seed")) is not None]
 
 
 def _row_key(r: dict[str, str]) -> tuple[str, int, int, int]:
@@ -440,8 +442,8 @@ def run_jobs(
         if log is not None:
             reach = row["steps_to_baseline"]
             log(f"  {job.name} seed {job.seed}: {job.budget} steps in {float(row['train_s']):.0f}"
-                f" s, success {_pct(_num(row['agent_success']))} (baseline "
-                f"{_pct(_num(row['baseline_success']))}), return {row['agent_return']}, "
+                f" s, success {_pct(parse_number(row['agent_success']))} (baseline "
+                f"{_pct(parse_number(row['baseline_success']))}), return {row['agent_return']}, "
                 f"baseline level {'never' if reach == '' else f'at {reach} steps'} "
                 f"[{written}/{len(jobs)}]")
 
@@ -614,10 +616,10 @@ def format_table(rows: Sequence[dict[str, str]]) -> str:
     for (name, algo, steps, eps), rs in sorted(groups.items()):
 
         def col(c: str, rs: list[dict[str, str]] = rs) -> list[float | None]:
-            return [_num(r.get(c)) for r in rs]
+            return [parse_number(r.get(c)) for r in rs]
 
         for r in rs:
-            cpu += _num(r.get("cpu_s")) or _num(r.get("train_s")) or 0.0
+            cpu += parse_number(r.get("cpu_s")) or parse_number(r.get("train_s")) or 0.0
         lines.append("| " + " | ".join([
             name, algo.upper(), str(steps), str(len(rs)), str(eps),
             _cell(col("agent_success"), 100, 0), _cell(col("baseline_success"), 100, 0, False),
@@ -649,7 +651,8 @@ def _eval_history(run_dir: Path) -> list[dict[str, float | None]]:
     if not path.is_file():
         return []
     with path.open(newline="") as f:
-        return [{k: _num(v) for k, v in r.items() if k is not None} for r in csv.DictReader(f)]
+        return [{k: parse_number(v) for k, v in r.items() if k is not None}
+                for r in csv.DictReader(f)]
 
 
 def plot_curves(rows: Sequence[dict[str, str]], configs: Sequence[str], out: str | Path,
@@ -671,7 +674,7 @@ def plot_curves(rows: Sequence[dict[str, str]], configs: Sequence[str], out: str
     axes = fig.subplots(len(keys), 2, squeeze=False)
     for (name, steps), (ax_s, ax_t) in zip(keys, axes, strict=True):
         rs = groups[(name, steps)]
-        rms = any(_num(r.get("agent_rms")) is not None for r in rs)
+        rms = any(parse_number(r.get("agent_rms")) is not None for r in rs)
         column = "rms_tracking_error" if rms else "success_rate"
         scale, label = (1.0, "RMS tracking error [m]") if rms else (100.0, "success [%]")
         per_step: dict[float, list[tuple[float, float]]] = {}
@@ -690,7 +693,7 @@ def plot_curves(rows: Sequence[dict[str, str]], configs: Sequence[str], out: str
         xs = sorted(per_step)
         ys = [np.array([y for _, y in per_step[x]]) for x in xs]
         ws = [float(np.mean([w for w, _ in per_step[x]])) for x in xs]
-        level = _mean([_num(r.get("baseline_eval_rms" if rms else "baseline_eval_success"))
+        level = _mean([parse_number(r.get("baseline_eval_rms" if rms else "baseline_eval_success"))
                        for r in rs])
         for ax, x, xlabel in ((ax_s, xs, "environment steps"), (ax_t, ws, "wall time [s]")):
             if xs:

@@ -39,7 +39,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from wheelgym.agents.benchmark import read_rows
+from wheelgym.agents.benchmark import parse_number, read_rows
 from wheelgym.agents.config import TrainConfig, load_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
 
@@ -149,19 +149,10 @@ def load_pretrained(name: str, root: str | Path | None = None,
 # --------------------------------------------------------------------------------------------
 
 
-def _num(text: Any) -> float | None:
-    if text is None or str(text).strip() == "":
-        return None
-    try:
-        v = float(text)
-    except ValueError:
-        return None
-    return v if math.isfinite(v) else None
-
-
 def _rank(row: dict[str, str]) -> tuple[float, float, float, float]:
     """Larger is better: success, then lower RMS, then return, then the lower seed."""
-    succ, rms, ret = (_num(row.get(c)) for c in ("agent_success", "agent_rms", "agent_return"))
+    succ, rms, ret = (parse_number(row.get(c))
+                      for c in ("agent_success", "agent_rms", "agent_return"))
     return (-math.inf if succ is None else succ,
             -math.inf if rms is None else -rms,
             -math.inf if ret is None else ret,
@@ -264,7 +255,7 @@ def export_best(
                 "seed": int(float(row["seed"])),
                 "n_timesteps": int(float(row["n_timesteps"])),
                 "episodes": int(float(row.get("episodes") or 0)),
-                "scores": {c: _num(row.get(c)) for c in CARD_SCORES},
+                "scores": {c: parse_number(row.get(c)) for c in CARD_SCORES},
                 "csv": _shown(csv_path),
                 "run_dir": row.get("run_dir", ""),
                 "finished_utc": row.get("finished_utc", ""),
