@@ -216,6 +216,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="only draw learning curves of the configs given from the CSV's runs")
     b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
+    b.add_argument("--readme", type=Path, default=None, metavar="README.md",
+                   help="also put the table between the results markers of this file")
 
     r = sub.add_parser("pretrained", help="list the shipped agents, or export them from the "
                                           "benchmark CSV")
@@ -370,6 +372,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         plot_curves,
         read_rows,
         run_benchmark,
+        update_readme,
     )
 
     csv_path = a.csv if a.csv is not None else DEFAULT_CSV
@@ -406,6 +409,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
+    if a.readme is not None:
+        update_readme(a.readme, table)
     return 0
 
 

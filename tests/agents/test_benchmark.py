@@ -15,14 +15,18 @@ pytest.importorskip("stable_baselines3")
 import wheelgym.agents.train as train_mod  # noqa: E402
 from wheelgym.agents.benchmark import (  # noqa: E402
     COLUMNS,
+    DEFAULT_CSV,
     _append_row,
     _scaled_eval_freq,
     default_configs,
     format_table,
     plot_curves,
     read_rows,
+    readme_table,
     run_jobs,
     steps_to_baseline,
+    target_misses,
+    update_readme,
 )
 from wheelgym.agents.config import load_config  # noqa: E402
 from wheelgym.cli import main  # noqa: E402
@@ -196,3 +200,55 @@ def _run_main(argv: list[str]) -> int:
         return main(argv)
     except SystemExit as e:  # argparse
         return e.code if isinstance(e.code, int) else 1
+
+
+def _col(values: dict[str, list[float | None]]):
+    return lambda c: values.get(c, [None])
+
+
+@pytest.mark.parametrize("config, values, misses", [
+    ("ThreeWheel-goal-velocity", {"agent_success": [1.0, 0.96], "baseline_success": [1.0]},
+     []),
+    ("ThreeWheel-goal-velocity", {"agent_success": [1.0, 0.8], "baseline_success": [1.0]},
+     ["success"]),  # mean 0.90 < 0.95
+    ("SkidSteer-navigate-torque", {"agent_success": [0.7], "baseline_success": [0.74]}, []),
+    ("SkidSteer-navigate-torque", {"agent_success": [0.6], "baseline_success": [0.74]},
+     ["success"]),
+    ("DiffDrive-track-WheelSpeeds", {"agent_success": [0.9], "agent_rms": [0.05],
+                                     "baseline_rms": [0.02]}, ["RMS"]),  # 5 cm > 4 cm
+    ("DiffDrive-track-WheelSpeeds", {"agent_success": [0.9], "agent_rms": [0.019],
+                                     "baseline_rms": [0.001]}, []),  # the 2 cm floor
+    ("ThreeWheel-goal-torque", {"agent_success": [1.0], "baseline_success": [1.0],
+                                "agent_internal_force": [0.4], "baseline_internal_force": [0.1],
+                                "agent_energy": [10.0], "baseline_energy": [8.0]},
+     ["internal force"]),
+    ("ThreeWheel-goal-torque", {"agent_success": [1.0], "baseline_success": [1.0],
+                                "agent_internal_force": [0.2], "baseline_internal_force": [0.1],
+                                "agent_energy": [13.0], "baseline_energy": [8.0]},
+     ["energy"]),
+    ("CasterAGV-goal-torque", {"agent_success": [1.0], "baseline_success": [1.0],
+                               "agent_energy": [30.0], "baseline_energy": [8.0],
+                               "agent_saturation": [0.3], "train_s": [700.0]},
+     ["saturation", "time"]),  # no internal force: energy is reported, not a target
+])
+def test_target_misses(config, values, misses):
+    assert target_misses(config, _col(values)) == misses
+
+
+def test_readme_results_table_is_the_csv_table(tmp_path):
+    """The README's table is what the generator makes of the committed CSV, and --readme
+    rewrites it in place."""
+    root = Path(__file__).resolve().parents[2]
+    readme = (root / "README.md").read_text()
+    shown = readme_table(readme)
+    assert shown is not None, "README.md has no results-table markers"
+    assert shown == format_table(read_rows(root / DEFAULT_CSV))
+    copy = tmp_path / "README.md"
+    copy.write_text(readme.replace(shown, "stale"))
+    assert main(["benchmark", "--table", "--csv", str(root / DEFAULT_CSV), "--readme",
+                 str(copy)]) == 0
+    assert copy.read_text() == readme
+    plain = tmp_path / "x.md"
+    plain.write_text("# x\n")
+    with pytest.raises(ValueError, match="no results markers"):
+        update_readme(plain, "t")

@@ -594,8 +594,66 @@ TABLE_HEAD: tuple[str, ...] = (
     "config", "algo", "steps", "seeds", "episodes",
     "agent success [%]", "baseline success [%]", "random success [%]",
     "agent RMS [m]", "baseline RMS [m]", "agent return", "baseline return", "random return",
-    "steps to baseline", "train [s/seed]",
+    "energy / baseline", "internal force / baseline", "agent saturation [%]",
+    "steps to baseline", "train [s/seed]", "targets",
 )
+
+#: The results targets (issue 15), on the means over seeds: success (goal: >= 95% and >= the
+#: baseline's - 5 points; navigate: >= the baseline's - 5 points; track: >= 90%), track RMS
+#: error <= max(2x the baseline's, 2 cm), ThreeWheel torque mode internal force <= 3x and energy
+#: <= 1.5x the baseline's, saturation <= 25% of the episode, training <= 10 min per seed.
+TARGETS = {"goal_success": 0.95, "track_success": 0.90, "below_baseline": 0.05,
+           "rms_factor": 2.0, "rms_floor": 0.02, "internal_force_factor": 3.0,
+           "energy_factor": 1.5, "saturation": 0.25, "train_s": 600.0}
+
+
+def _mean_of(values: Sequence[float | None]) -> float | None:
+    vals = [v for v in values if v is not None]
+    return float(np.mean(vals)) if vals else None
+
+
+def target_misses(config: str, col: Callable[[str], list[float | None]]) -> list[str]:
+    """The targets (:data:`TARGETS`) that the means over seeds of a config's rows miss.
+
+    ``config`` is a config name ``Robot-task-mode[-...]`` (the task is its second field);
+    ``col(name)`` gives the CSV column ``name`` of the config's rows as numbers."""
+    t = TARGETS
+    task = config.split("-")[1] if config.count("-") >= 1 else ""
+    m = {c: _mean_of(col(c)) for c in (
+        "agent_success", "baseline_success", "agent_rms", "baseline_rms", "agent_energy",
+        "baseline_energy", "agent_internal_force", "baseline_internal_force",
+        "agent_saturation", "train_s")}
+    miss = []
+    succ, base = m["agent_success"], m["baseline_success"]
+    if succ is not None:
+        floor = {"goal": t["goal_success"], "track": t["track_success"]}.get(task, 0.0)
+        if base is not None:
+            floor = max(floor, base - t["below_baseline"]) if task != "track" else floor
+        if succ < floor - 1e-9:
+            miss.append("success")
+    if task == "track" and m["agent_rms"] is not None and m["baseline_rms"] is not None:
+        if m["agent_rms"] > max(t["rms_factor"] * m["baseline_rms"], t["rms_floor"]):
+            miss.append("RMS")
+    if config.endswith("-torque") or "-torque-" in config:
+        xf, bxf = m["agent_internal_force"], m["baseline_internal_force"]
+        if xf is not None and bxf is not None and xf > t["internal_force_factor"] * bxf:
+            miss.append("internal force")
+        e, be = m["agent_energy"], m["baseline_energy"]
+        if (xf is not None and e is not None and be is not None
+                and e > t["energy_factor"] * be):
+            miss.append("energy")
+    if m["agent_saturation"] is not None and m["agent_saturation"] > t["saturation"]:
+        miss.append("saturation")
+    if m["train_s"] is not None and m["train_s"] > t["train_s"]:
+        miss.append("time")
+    return miss
+
+
+def _ratio_cell(col: Callable[[str], list[float | None]], agent: str, base: str) -> str:
+    a, b = _mean_of(col(agent)), _mean_of(col(base))
+    if a is None or b is None or b <= 0.0:
+        return "-"
+    return f"{a / b:.2f}x" if a / b < 100 else f"{a / b:.0f}x"
 
 
 def format_table(rows: Sequence[dict[str, str]]) -> str:
@@ -627,18 +685,50 @@ def format_table(rows: Sequence[dict[str, str]]) -> str:
             _cell(col("agent_rms"), 1, 3), _cell(col("baseline_rms"), 1, 3, False),
             _cell(col("agent_return"), 1, 1), _cell(col("baseline_return"), 1, 1, False),
             _cell(col("random_return"), 1, 1, False),
+            _ratio_cell(col, "agent_energy", "baseline_energy"),
+            _ratio_cell(col, "agent_internal_force", "baseline_internal_force"),
+            _cell(col("agent_saturation"), 100, 0),
             _reach_cell(col("steps_to_baseline")),
             _cell(col("train_s"), 1, 0, False),
+            ", ".join(f"**{m}**" for m in target_misses(name, col)) or "met",
         ]) + " |")
     lines.append("")
     lines.append(
         "Agent: mean ± std over training seeds of each seed's mean over the evaluation "
         "episodes; baseline and random: mean over the same episodes. Steps to baseline: first "
         "periodic evaluation within 5 points of the baseline's success (track: within 2x its RMS "
-        "error), mean over the seeds that reached it. "
+        "error), mean over the seeds that reached it. Energy and internal force: the agent's "
+        "mean over the baseline's. Targets: `met`, or the ones missed in bold (success: goal "
+        ">= 95% and >= baseline - 5 points, navigate >= baseline - 5, track >= 90%; RMS <= "
+        "max(2x baseline, 2 cm); torque mode internal force <= 3x and energy <= 1.5x the "
+        "baseline's where internal force is defined; saturation <= 25%; time <= 10 min/seed). "
         f"Total CPU time {_duration(cpu)} ({len(rows)} runs)."
     )
     return "\n".join(lines)
+
+
+README_BEGIN = "<!-- results-table: begin (wheelgym benchmark --table --readme README.md) -->"
+README_END = "<!-- results-table: end -->"
+
+
+def readme_table(text: str) -> str | None:
+    """The results table between the README markers (``README_BEGIN``/``README_END``), or
+    None when the markers are missing."""
+    i, j = text.find(README_BEGIN), text.find(README_END)
+    if i < 0 or j < i:
+        return None
+    return text[i + len(README_BEGIN):j].strip("\n")
+
+
+def update_readme(path: str | Path, table: str) -> None:
+    """Put ``table`` between the results markers of the Markdown file ``path`` (``ValueError``
+    naming the file when they are missing)."""
+    path = Path(path)
+    text = path.read_text()
+    i, j = text.find(README_BEGIN), text.find(README_END)
+    if i < 0 or j < i:
+        raise ValueError(f"{path}: no results markers ({README_BEGIN!r} ... {README_END!r})")
+    path.write_text(text[:i + len(README_BEGIN)] + "\n" + table + "\n" + text[j:])
 
 
 # --------------------------------------------------------------------------------------------
