@@ -78,3 +78,23 @@ def test_goal_task_has_no_proximity_term():
     assert "proximity" not in info["reward_terms"]
     with pytest.raises(ValueError, match="proximity"):
         gym.make("wheelgym/ThreeWheel-v0", task="goal", reward_weights={"proximity": 1.0})
+
+
+@pytest.mark.parametrize("robot, task", [("SkidSteer", "track"), ("ThreeWheel", "goal"),
+                                         ("CasterAGV", "navigate")])
+def test_saturation_term_follows_the_flag(robot, task):
+    env = gym.make(f"wheelgym/{robot}-v0", task=task, action_mode="velocity",
+                   reward_weights={"saturation": 0.5})
+    env.reset(seed=1)
+    rng = np.random.default_rng(1)
+    flags = []
+    for _ in range(40):
+        # half the steps within bounds, half far beyond (clipped: the flag is up)
+        a = rng.uniform(-1, 1, env.action_space.shape) * rng.choice([0.5, 4.0])
+        _, r, term, trunc, info = env.step(a.astype(np.float32))
+        flags.append(bool(info["saturated"]))
+        assert info["reward_terms"]["saturation"] == (-0.5 if info["saturated"] else 0.0)
+        assert sum(info["reward_terms"].values()) == pytest.approx(r, abs=1e-12)
+        if term or trunc:
+            env.reset()
+    assert any(flags) and not all(flags)  # both branches were seen

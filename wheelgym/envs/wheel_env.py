@@ -55,6 +55,8 @@ ones); ``info["reward_terms"]`` holds the weighted terms and they add up to the 
 | proximity      | navigate        | -clip(1 - gap / 0.5 m, 0, 1); gap: footprint to  | 0      |
 |                |                 | the nearest obstacle (exact, not the rays)       |        |
 | lost           | track           | -1 when more than 1 m from the reference         | 10     |
+| saturation     | all             | -1 when an action or a controller torque was     | 0      |
+|                |                 | clipped (``info["saturated"]``)                  |        |
 
 ## Starting State
 

@@ -4,8 +4,8 @@ Pure functions of the batch: row i reads only row i, so a batch of N gives each 
 N = 1. Term columns (the tasks name a subset; unused columns have weight 0):
 
 * goal/navigate: 0 progress, 1 heading, 2 effort, 3 internal_force, 4 success, 5 overspeed,
-  6 collision, 7 proximity;
-* track: 0 position, 1 heading, 2 effort, 3 internal_force, 4 overspeed, 5 lost.
+  6 collision, 7 proximity, 8 saturation;
+* track: 0 position, 1 heading, 2 effort, 3 internal_force, 4 overspeed, 5 lost, 6 saturation.
 """
 
 from __future__ import annotations
@@ -102,6 +102,7 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
         t[7] = -W[7] * min(max(1.0 - (clear[i] - cfg[7]) / cfg[8], 0.0), 1.0)
     else:
         t[7] = 0.0
+    t[8] = -W[8] if F[i, 0] else 0.0  # an action or a controller torque was clipped
     r = 0.0
     for k in range(t.shape[0]):
         r += t[k]
@@ -115,7 +116,7 @@ def _goal_row(i, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
 @njit(cache=True)
 def k_goal(rows, B, F, m, goal, prev_dist, ranges, clear, cfg, fclip, W, obs,
            terms):  # pragma: no cover - compiled
-    """Goal and navigate tasks: observation, the 8 term columns, reward, end, success, dist,
+    """Goal and navigate tasks: observation, the 9 term columns, reward, end, success, dist,
     for the rows listed in ``rows`` (the others are not touched).
 
     Also moves ``prev_dist`` on to the new distance (a row evaluated twice at the same pose
@@ -173,6 +174,7 @@ def k_track(rows, B, F, m, ref, kstep, kbase, L, preview, cfg, fclip, W, obs,
         t[3] = -W[3] * b[o + 8]
         t[4] = -W[4] if over else 0.0
         t[5] = -W[5] if gone else 0.0
+        t[6] = -W[6] if F[i, 0] else 0.0  # an action or a controller torque was clipped
         r = 0.0
         for q in range(t.shape[0]):
             r += t[q]

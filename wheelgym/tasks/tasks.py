@@ -167,9 +167,10 @@ class GoalTask(Task):
 
     name = "goal"
     columns = ("progress", "heading", "effort", "internal_force", "success", "overspeed",
-               "collision", "proximity")
+               "collision", "proximity", "saturation")
     default_weights = {"progress": 1.0, "heading": 0.02, "effort": 0.01, "internal_force": 0.2,
-                       "success": 10.0, "overspeed": 10.0, "collision": 10.0, "proximity": 0.0}
+                       "success": 10.0, "overspeed": 10.0, "collision": 10.0, "proximity": 0.0,
+                       "saturation": 0.0}
     #: Position (m) and heading (rad) tolerances of success.
     tol_pos: float = 0.1
     tol_yaw: float = 0.2
@@ -545,9 +546,10 @@ class TrackTask(Task):
     """
 
     name = "track"
-    columns = ("position", "heading", "effort", "internal_force", "overspeed", "lost")
+    columns = ("position", "heading", "effort", "internal_force", "overspeed", "lost",
+               "saturation")
     default_weights = {"position": 1.0, "heading": 0.1, "effort": 0.01, "internal_force": 0.2,
-                       "overspeed": 10.0, "lost": 10.0}
+                       "overspeed": 10.0, "lost": 10.0, "saturation": 0.0}
     #: Preview offsets (control steps) of the reference points in the observation.
     preview_steps = np.array([10, 20, 30], dtype=np.int64)
     #: Distance (m) beyond which the robot is lost (the episode ends).
