@@ -252,3 +252,41 @@ def test_readme_results_table_is_the_csv_table(tmp_path):
     plain.write_text("# x\n")
     with pytest.raises(ValueError, match="no results markers"):
         update_readme(plain, "t")
+
+
+def _compile_something_new(k: int) -> tuple[int, int]:
+    """Runs in a pool worker: compiles a function numba has never seen (no cache), as a worker
+    does on a fresh checkout, and reports the thread settings."""
+    import numba
+
+    @numba.njit(parallel=True)
+    def total(n):
+        s = 0
+        for i in numba.prange(n):
+            s += i
+        return s
+
+    return int(total(k)), int(numba.config.NUMBA_NUM_THREADS)
+
+
+def test_pool_worker_compiles_with_one_numba_thread():
+    """The benchmark's workers set NUMBA_NUM_THREADS=1 after numba was imported; compiling in
+    the worker must not trip numba's 'Cannot set NUMBA_NUM_THREADS ... once the threads have
+    been launched' (which failed every job of a run on a cold cache)."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from wheelgym.agents.benchmark import _worker_init
+
+    env = {k: os.environ.get(k) for k in ("NUMBA_NUM_THREADS",)}
+    os.environ["NUMBA_NUM_THREADS"] = "2"  # what the parent (2 cores) has
+    try:
+        with ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"),
+                                 initializer=_worker_init) as pool:
+            assert pool.submit(_compile_something_new, 10).result(timeout=300) == (45, 1)
+    finally:
+        for k, v in env.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v

@@ -169,3 +169,18 @@ def test_bad_values_raise():
     with pytest.raises(ValueError, match="achieved_goal"):
         u.compute_reward(np.zeros(3), np.zeros(3), {})
     assert not hasattr(gym.make(env_id("ThreeWheel")).unwrapped, "compute_reward")
+
+
+def test_baseline_takes_the_dict_observation():
+    """The evaluation loop hands the baseline the Dict observation: one action of the action
+    space's shape for a single env (not a batch of one)."""
+    import wheelgym
+
+    env = gym.make("wheelgym/Bicycle-v0", task="goal", action_mode="VehicleSpeedSteeringAngle",
+                   goal_conditioned=True)
+    obs, _ = env.reset(seed=0)
+    policy = wheelgym.baseline(env)
+    for _ in range(5):
+        action, _ = policy.predict(obs)
+        assert action.shape == env.action_space.shape
+        obs, *_ = env.step(action)

@@ -270,8 +270,14 @@ def _worker_init() -> None:
         os.environ[var] = "1"
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # train() installs its own handler meanwhile
     import numba
+    import numba.core.config
     import torch
 
+    # numba read NUMBA_NUM_THREADS when this process imported it (before this function ran);
+    # reread it before its threads start, or the first compilation in the worker (a cold
+    # cache) rereads the changed variable and refuses: "Cannot set NUMBA_NUM_THREADS to a
+    # different value once the threads have been launched"
+    numba.core.config.reload_config()
     torch.set_num_threads(1)
     numba.set_num_threads(1)
 

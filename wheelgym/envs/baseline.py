@@ -131,6 +131,8 @@ class BaselinePolicy:
         """Actions for the core's current state: ``(action_dim,)`` for a single env (N = 1
         with a 1-D observation), else ``(N, action_dim)``."""
         a = self.actions()
+        if isinstance(observation, dict):  # goal_conditioned: the Dict observation
+            observation = observation.get("observation")
         single = observation is not None and np.ndim(observation) == 1
         return (a[0] if single else a).astype(np.float32), None
 
