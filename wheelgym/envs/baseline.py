@@ -20,6 +20,21 @@ observation), and outputs actions in the env's action space:
      when off the path), which gives the model's inputs directly;
    * track: the reference twist fed forward plus feedback on the body-frame error
      (ThreeWheel: per axis; nonholonomic: Kanayama's law);
+   * track, car-like: speed and steering angle directly (:class:`_CarTrackSearch`). Where
+     the reference over the next 1.5 s (the 30 steps the task previews) turns no tighter
+     than the car can (``|w_r| <= 0.97 |v_r| tan(psi_max) / l``; Ackermann: and its steering
+     angle ``atan(l w_r / v_r)`` changes within the rate limit, and the car's steering is
+     within 0.05 rad of it) and the rear axle is within 2 cm and 0.1 rad of it: the
+     rear-wheel feedback of :func:`~wheelgym.kinematics.car_tracking.rear_wheel_steering`
+     (curvature feed-forward ``w_r / v_r``) about the reference of the current step, with
+     the speed ``v_r cos(e_th) - k_s e_s`` (the reference runs on a clock: feedback on the
+     along-track error), reversing where that is negative. Elsewhere (the figure-eight's
+     lobes turn at radii down to 0.2 m, the cars' least is 0.87 m; a start with the
+     Ackermann's steering off the reference's): a receding-horizon search over 30-step plans
+     of speed and steering angle (600 fixed random piecewise-constant plans, the last plan
+     moved on a step, local refinements of the best; each simulated on the car's model with
+     its steering-rate limit), which starts the plan of least summed squared distance to the
+     reference, forwards or backwards (the Bicycle backs and fills through the lobes);
    * navigate: the goal attraction plus a repulsion from every range reading closer than
      ``d_safe`` (a potential field on the 16 rays), turned into a twist as above;
 
@@ -32,7 +47,8 @@ observation), and outputs actions in the env's action space:
    speed changes, so the torque drifts from the command within a step);
    kinematic robots map it onto their input mode.
 
-Everything is batched over the core's rows with elementwise NumPy.
+Everything is batched over the core's rows with elementwise NumPy (the car-like search: per
+row, its argmin exact, so a batch equals its single robots).
 """
 
 from __future__ import annotations
@@ -118,6 +134,11 @@ class BaselinePolicy:
 
             self._cars = [CarTracker.from_model(core.model) for _ in range(core.num)]
             self._car_goal = np.full((core.num, 3), np.nan)
+        #: car-like robots on ``track``: feedback, and a receding-horizon search where the
+        #: reference is out of the car's reach (each row's last plan is its warm start)
+        self._car_track: _CarTrackSearch | None = None
+        if not self.turns_in_place and core.task_name == "track":
+            self._car_track = _CarTrackSearch(core)
         if spec.baseline_controllers:
             from wheelgym.control.controllers import TrackingController, TwistController
 
@@ -140,6 +161,8 @@ class BaselinePolicy:
         """Forget the car-like robots' plans (they are replanned at the next call)."""
         if self._cars is not None:
             self._car_goal[:] = np.nan
+        if self._car_track is not None:
+            self._car_track.reset()
 
     # ------------------------------------------------------------------ commands
     def actions(self) -> np.ndarray:
@@ -154,6 +177,8 @@ class BaselinePolicy:
             return self._torque_action(tau)
         if self._cars is not None:
             return self._car_actions()
+        if self._car_track is not None:
+            return self._car_track_actions()
         if task == "track":
             cmd = self._track_twist()
         else:
@@ -171,6 +196,21 @@ class BaselinePolicy:
                 car.reset(c.X[i], goal[i])
                 self._car_goal[i] = goal[i]
             u[i] = car.action(c.X[i], c.dt)
+        return self._scale(u)
+
+    def _car_track_actions(self) -> np.ndarray:
+        """Bicycle/Ackermann on ``track``: speed and steering angle of :class:`_CarTrackSearch`
+        as the model's input mode, scaled onto the action range."""
+        c = self.core
+        v, delta = self._car_track.inputs()
+        mode = c.action_mode
+        if mode == "VehicleSpeedSteeringAngle":
+            u = np.stack([v, delta], axis=1)
+        elif mode == "VehicleSpeedSteeringRate":  # turn to delta within the step
+            u = np.stack([v, (delta - c.X[:, 3]) / c.dt], axis=1)
+        else:  # VehicleSpeedHeadingRate
+            u = np.stack([v, v * ew.sin(delta) / ew.cos(delta) / self._car_track.wheelbase],
+                         axis=1)
         return self._scale(u)
 
     def _goal_twist(self) -> np.ndarray:
@@ -344,6 +384,198 @@ class BaselinePolicy:
         mid = 0.5 * (c.HI + c.LO)
         half = np.maximum(0.5 * (c.HI - c.LO), 1e-12)
         return np.clip((u - mid) / half, -1.0, 1.0)
+
+
+def _car_feedback(pose: np.ndarray, ref0: np.ndarray, ref1: np.ndarray, wheelbase: float,
+                  psi_max: float) -> tuple[np.ndarray, ...]:
+    """Rear-axle feedback on a time-parameterised reference (car-like ``track``).
+
+    ``pose (n, 3)`` the rear axle, ``ref0``/``ref1 (n, 6)`` the reference pose and body twist
+    at this control step and the next. The law of
+    :func:`~wheelgym.kinematics.car_tracking.rear_wheel_steering` (curvature feed-forward
+    ``kappa_r = w_r / v_r`` of the step's mean twist, feedback on the lateral offset ``e_n`` and
+    heading error ``e_th`` per metre of signed travel) with a speed feedback on the
+    along-track error ``e_s`` (the reference runs on a clock): ``v = v_r cos(e_th) -
+    k_s e_s``, driving backwards (the virtual car facing ``yaw + pi``) when that is negative.
+
+    Returns ``(v, delta, e_s, e_n, e_th)``: speed (m/s), steering angle (rad, within
+    ``psi_max``), errors (m, m, rad; ahead, left and yaw of the reference positive).
+    """
+    k_e, k_th, k_s = _CAR_GAINS
+    vr = 0.5 * (ref0[:, 3] + ref1[:, 3])
+    wr = 0.5 * (ref0[:, 5] + ref1[:, 5])
+    cr, sr = ew.cos(ref0[:, 2]), ew.sin(ref0[:, 2])
+    dx, dy = pose[:, 0] - ref0[:, 0], pose[:, 1] - ref0[:, 1]
+    es = cr * dx + sr * dy
+    en = cr * dy - sr * dx
+    eth = ew.wrap_angle(pose[:, 2] - ref0[:, 2])
+    moving = np.abs(vr) > 1e-6
+    kr = np.where(moving, wr / np.where(moving, vr, 1.0), 0.0)
+    v = vr * ew.cos(eth) - k_s * es
+    sgn = np.where(v < 0.0, -1.0, 1.0)
+    ev, kv = sgn * en, sgn * kr  # the virtual car facing yaw + pi when reversing
+    den = np.maximum(1.0 - kv * ev, 0.2)
+    small = np.abs(eth) < 1e-9
+    sinc = np.where(small, 1.0, ew.sin(eth) / np.where(small, 1.0, eth))
+    kappa = kv * ew.cos(eth) / den - k_th * eth - k_e * ev * sinc
+    # arctan2(y, 1): arctan without a division by zero at y = 0
+    delta = np.clip(ew.arctan2(wheelbase * kappa * sgn, 1.0), -psi_max, psi_max)
+    return v, delta, es, en, eth
+
+
+def _car_rollout(start: np.ndarray, V: np.ndarray, D: np.ndarray, ref_xy: np.ndarray,
+                 dt: float, wheelbase: float, rate: float | None) -> np.ndarray:
+    """Sum over the horizon of the squared distance to the reference of ``K`` plans.
+
+    ``start (n, 4)`` the rows' ``(x, y, yaw, psi)``, ``V, D (n, H, K)`` each plan's speed
+    (m/s) and steering angle (rad) per control step, ``ref_xy (n, H, 2)`` the reference
+    positions after each step. The model is the car's: ``yawdot = v tan(psi) / l`` with the
+    steering ``psi = delta`` (Bicycle) or turned toward ``delta`` at ``rate`` rad/s at most
+    (Ackermann), integrated at the step's midpoint heading. Returns ``(n, K)`` (m^2).
+    """
+    n, H, K = V.shape
+    x = np.repeat(start[:, 0:1], K, axis=1)
+    y = np.repeat(start[:, 1:2], K, axis=1)
+    th = np.repeat(start[:, 2:3], K, axis=1)
+    psi = np.repeat(start[:, 3:4], K, axis=1)
+    vdt = V * dt
+    kappa = ew.sin(D) / ew.cos(D) / wheelbase if rate is None else None
+    cost = np.zeros((n, K))
+    for k in range(H):
+        if kappa is None:  # Ackermann: the steering turns at the rate limit at most
+            turn = np.clip(D[:, k] - psi, -rate * dt, rate * dt)
+            mid = psi + 0.5 * turn
+            psi = psi + turn
+            dth = vdt[:, k] * (ew.sin(mid) / ew.cos(mid) / wheelbase)
+        else:
+            dth = vdt[:, k] * kappa[:, k]
+        th_mid = th + 0.5 * dth
+        x = x + vdt[:, k] * ew.cos(th_mid)
+        y = y + vdt[:, k] * ew.sin(th_mid)
+        th = th + dth
+        ex = x - ref_xy[:, k, 0:1]
+        ey = y - ref_xy[:, k, 1:2]
+        cost = cost + (ex * ex + ey * ey)
+    return cost
+
+
+#: Car-like ``track``: rear-axle feedback gains ``k_e`` (1/m^2), ``k_th`` (1/m) and the speed
+#: feedback ``k_s`` (1/s) on the along-track error.
+_CAR_GAINS = (4.0, 4.0, 1.0)
+
+
+class _CarTrackSearch:
+    """Car-like ``track`` (Bicycle, Ackermann): feedback where the reference is within reach,
+    a receding-horizon search where it is not (module docstring).
+
+    Each control step, per row: while the reference over the next ``H`` steps turns no
+    tighter than ``feasible`` times the car's minimum radius allows (Ackermann: and its
+    steering angle changes no faster than ``feasible`` times the rate limit) and the robot is
+    within ``near`` of it, the rear-axle feedback (:func:`_car_feedback`) drives. Elsewhere
+    ``H``-step plans of speed and steering angle are simulated (:func:`_car_rollout`) and the
+    one with the least summed squared distance to the reference positions is started: a fixed
+    table of ``samples`` random plans (``pieces`` piecewise-constant pieces, speeds uniform
+    in ``speeds``, steering angles among ``steer_levels`` times ``psi_max``; one table for
+    every row), the last plan moved on a step (else the feedback command held), and the best
+    so far with each piece's speed or steering moved by ``+-step`` (a second pass at half the
+    step). Element-wise per row (the argmin is exact), so a batch equals its single robots.
+
+    Args:
+        core: the environment's core (a car-like robot on ``track``).
+    """
+
+    H = 30  # horizon (control steps); reference_ahead reaches 31
+    pieces = 8
+    samples = 600
+    speeds = (-1.0, 2.0)  # m/s, cut to the model's speed range
+    steer_levels = (-1.0, -0.5, 0.0, 0.5, 1.0)
+    step = (0.4, 0.25)  # m/s, rad
+    feasible = 0.97
+    near = (0.02, 0.1)  # m, rad
+    chunk = 16  # rows searched together (memory)
+
+    def __init__(self, core: WheelCore) -> None:
+        self.core = core
+        p = core.params_rows[0]
+        self.wheelbase = float(p.wheelbase)
+        self.psi_max = float(p.max_steering_angle)
+        self.rate = float(p.max_steering_rate) if core.X.shape[1] > 3 else None
+        lo, hi = (float(s) for s in p.speed_range)
+        self.v_range = (lo, hi)
+        H, P = self.H, self.pieces
+        self.cuts = np.linspace(0, H, P + 1).astype(np.int64)
+        rng = np.random.default_rng(0)
+        v = rng.uniform(max(self.speeds[0], lo), min(self.speeds[1], hi), (self.samples, P))
+        d = rng.choice(np.asarray(self.steer_levels) * self.psi_max, (self.samples, P))
+        reps = np.diff(self.cuts)
+        self.table_v = np.ascontiguousarray(np.repeat(v, reps, axis=1).T)  # (H, samples)
+        self.table_d = np.ascontiguousarray(np.repeat(d, reps, axis=1).T)
+        self.plan_v = np.zeros((core.num, H))
+        self.plan_d = np.zeros((core.num, H))
+        self.warm = np.zeros(core.num, dtype=bool)
+
+    def reset(self) -> None:
+        self.warm[:] = False
+
+    def inputs(self) -> tuple[np.ndarray, np.ndarray]:
+        """Speed (m/s) and steering angle (rad) ``(N,)`` for the core's current state."""
+        c = self.core
+        H, L = self.H, self.wheelbase
+        refs = np.stack([c.task.reference_ahead(k) for k in range(H + 1)], axis=1)
+        pose = c.pose
+        psi = c.X[:, 3] if self.rate is not None else np.zeros(c.num)
+        v, delta, es, en, eth = _car_feedback(pose, refs[:, 0], refs[:, 1], L, self.psi_max)
+        self.warm &= c.steps != 0  # a new episode forgets its row's plan
+        vr, wr = refs[:, :, 3], refs[:, :, 5]
+        k_max = float(ew.sin(self.psi_max) / ew.cos(self.psi_max)) / L  # 1/m, least radius
+        fb = np.all(np.abs(wr) <= self.feasible * k_max * np.abs(vr), axis=1)
+        if self.rate is not None:  # the reference's steering angle and its rate
+            d_ref = ew.arctan2(L * wr * np.where(vr < 0.0, -1.0, 1.0), np.abs(vr))
+            fb &= np.all(np.abs(d_ref[:, 1:] - d_ref[:, :-1])
+                         <= self.feasible * self.rate * c.dt, axis=1)
+            fb &= np.abs(psi - d_ref[:, 0]) <= 0.05
+        fb &= (es * es + en * en <= self.near[0] ** 2) & (np.abs(eth) <= self.near[1])
+        self.warm[fb] = False
+        rows = np.flatnonzero(~fb)
+        for s in range(0, rows.size, self.chunk):
+            r = rows[s:s + self.chunk]
+            start = np.stack([pose[r, 0], pose[r, 1], pose[r, 2], psi[r]], axis=1)
+            v[r], delta[r] = self._search(r, start, refs[r, 1:, :2], v[r], delta[r])
+        return v, delta
+
+    def _search(self, r: np.ndarray, start: np.ndarray, ref_xy: np.ndarray, v_fb: np.ndarray,
+                d_fb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n, H, S = r.size, self.H, self.samples
+        lo, hi = self.v_range
+        warm = self.warm[r, None]
+        shift_v = np.concatenate([self.plan_v[r, 1:], self.plan_v[r, -1:]], axis=1)
+        shift_d = np.concatenate([self.plan_d[r, 1:], self.plan_d[r, -1:]], axis=1)
+        best_v = np.where(warm, shift_v, v_fb[:, None])
+        best_d = np.where(warm, shift_d, d_fb[:, None])
+        dv, dd = self.step
+        for it in range(2):
+            cv, cd = [best_v[:, :, None]], [best_d[:, :, None]]
+            if it == 0:
+                cv += [np.broadcast_to(self.table_v, (n, H, S)),
+                       np.broadcast_to(v_fb[:, None, None], (n, H, 1))]
+                cd += [np.broadcast_to(self.table_d, (n, H, S)),
+                       np.broadcast_to(d_fb[:, None, None], (n, H, 1))]
+            for a, b in zip(self.cuts[:-1], self.cuts[1:], strict=True):
+                for sv, sd in ((dv, 0.0), (-dv, 0.0), (0.0, dd), (0.0, -dd)):
+                    pv, pd = best_v.copy(), best_d.copy()
+                    pv[:, a:b] = np.clip(pv[:, a:b] + sv, lo, hi)
+                    pd[:, a:b] = np.clip(pd[:, a:b] + sd, -self.psi_max, self.psi_max)
+                    cv.append(pv[:, :, None])
+                    cd.append(pd[:, :, None])
+            V, D = np.concatenate(cv, axis=2), np.concatenate(cd, axis=2)
+            cost = _car_rollout(start, V, D, ref_xy, self.core.dt, self.wheelbase, self.rate)
+            j = np.argmin(cost, axis=1)
+            rows = np.arange(n)
+            best_v, best_d = V[rows, :, j], D[rows, :, j]
+            dv, dd = 0.5 * dv, 0.5 * dd
+        self.plan_v[r], self.plan_d[r] = best_v, best_d
+        self.warm[r] = True
+        return best_v[:, 0], best_d[:, 0]
 
 
 def baseline(env: Any, **kwargs: Any) -> BaselinePolicy:
