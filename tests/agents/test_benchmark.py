@@ -104,10 +104,14 @@ def test_table_from_a_known_csv(tmp_path):
     rows = [
         {**common, "config": "ThreeWheel-goal-velocity", "seed": "0", "n_timesteps": "1000000",
          "train_s": "10", "cpu_s": "12", "steps_to_baseline": "400000", "agent_success": "0.8",
-         "agent_return": "10", "baseline_return": "12", "random_return": "-5"},
+         "agent_return": "10", "baseline_return": "12", "random_return": "-5",
+         "agent_energy": "20", "baseline_energy": "10", "agent_internal_force": "0.5",
+         "baseline_internal_force": "0.1", "agent_saturation": "0.1"},
         {**common, "config": "ThreeWheel-goal-velocity", "seed": "1", "n_timesteps": "1000000",
          "train_s": "14", "cpu_s": "18", "steps_to_baseline": "", "agent_success": "0.6",
-         "agent_return": "8", "baseline_return": "12", "random_return": "-5"},
+         "agent_return": "8", "baseline_return": "12", "random_return": "-5",
+         "agent_energy": "30", "baseline_energy": "10", "agent_internal_force": "0.7",
+         "baseline_internal_force": "0.1", "agent_saturation": "0.3"},
         {**common, "config": "ThreeWheel-track-velocity", "seed": "0", "n_timesteps": "500000",
          "train_s": "100", "cpu_s": "110", "steps_to_baseline": "250000", "agent_success": "1",
          "agent_rms": "0.009", "baseline_rms": "0.017", "agent_return": "-5.5",
@@ -118,17 +122,23 @@ def test_table_from_a_known_csv(tmp_path):
     expected = "\n".join([
         "| config | algo | steps | seeds | episodes | agent success [%] | baseline success [%] "
         "| random success [%] | agent RMS [m] | baseline RMS [m] | agent return | baseline "
-        "return | random return | steps to baseline | train [s/seed] |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "return | random return | energy / baseline | internal force / baseline | agent "
+        "saturation [%] | steps to baseline | train [s/seed] | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         "| ThreeWheel-goal-velocity | PPO | 1000000 | 2 | 10 | 70 ± 10 | 100 | 0 | - | - "
-        "| 9.0 ± 1.0 | 12.0 | -5.0 | 400k (1/2) | 12 |",
+        "| 9.0 ± 1.0 | 12.0 | -5.0 | 2.50x | 6.00x | 20 ± 10 | 400k (1/2) | 12 | **success** |",
         "| ThreeWheel-track-velocity | PPO | 500000 | 1 | 10 | 100 | 100 | 0 | 0.009 | 0.017 "
-        "| -5.5 | -8.3 | -60.0 | 250k | 100 |",
+        "| -5.5 | -8.3 | -60.0 | - | - | - | 250k | 100 | met |",
         "",
         "Agent: mean ± std over training seeds of each seed's mean over the evaluation episodes; "
         "baseline and random: mean over the same episodes. Steps to baseline: first periodic "
         "evaluation within 5 points of the baseline's success (track: within 2x its RMS error), "
-        "mean over the seeds that reached it. Total CPU time 2.3 min (3 runs).",
+        "mean over the seeds that reached it. Energy and internal force: the agent's mean over "
+        "the baseline's. Targets: `met`, or the ones missed in bold (success: goal >= 95% and >= "
+        "baseline - 5 points, navigate >= baseline - 5, track >= 90%; RMS <= max(2x baseline, "
+        "2 cm); torque mode internal force <= 3x and energy <= 1.5x the baseline's where internal "
+        "force is defined; saturation <= 25%; time <= 10 min/seed). Total CPU time 2.3 min (3 "
+        "runs).",
     ])
     assert format_table(read_rows(path)) == expected
 
