@@ -613,19 +613,15 @@ TARGETS = {"goal_success": 0.95, "track_success": 0.90, "below_baseline": 0.05,
            "energy_factor": 1.5, "saturation": 0.25, "train_s": 600.0}
 
 
-def _mean_of(values: Sequence[float | None]) -> float | None:
-    vals = [v for v in values if v is not None]
-    return float(np.mean(vals)) if vals else None
-
-
 def target_misses(config: str, col: Callable[[str], list[float | None]]) -> list[str]:
     """The targets (:data:`TARGETS`) that the means over seeds of a config's rows miss.
 
     ``config`` is a config name ``Robot-task-mode[-...]`` (the task is its second field);
     ``col(name)`` gives the CSV column ``name`` of the config's rows as numbers."""
     t = TARGETS
-    task = config.split("-")[1] if config.count("-") >= 1 else ""
-    m = {c: _mean_of(col(c)) for c in (
+    parts = config.split("-")
+    task = parts[1] if len(parts) > 1 else ""
+    m = {c: _mean(col(c)) for c in (
         "agent_success", "baseline_success", "agent_rms", "baseline_rms", "agent_energy",
         "baseline_energy", "agent_internal_force", "baseline_internal_force",
         "agent_saturation", "train_s")}
@@ -656,7 +652,7 @@ def target_misses(config: str, col: Callable[[str], list[float | None]]) -> list
 
 
 def _ratio_cell(col: Callable[[str], list[float | None]], agent: str, base: str) -> str:
-    a, b = _mean_of(col(agent)), _mean_of(col(base))
+    a, b = _mean(col(agent)), _mean(col(base))
     if a is None or b is None or b <= 0.0:
         return "-"
     return f"{a / b:.2f}x" if a / b < 100 else f"{a / b:.0f}x"
@@ -717,13 +713,18 @@ README_BEGIN = "<!-- results-table: begin (wheelgym benchmark --table --readme R
 README_END = "<!-- results-table: end -->"
 
 
+def _table_span(text: str) -> tuple[int, int] | None:
+    """Where the table between the README markers starts and ends in ``text`` (None: no
+    markers)."""
+    i, j = text.find(README_BEGIN), text.find(README_END)
+    return None if i < 0 or j < i else (i + len(README_BEGIN), j)
+
+
 def readme_table(text: str) -> str | None:
     """The results table between the README markers (``README_BEGIN``/``README_END``), or
     None when the markers are missing."""
-    i, j = text.find(README_BEGIN), text.find(README_END)
-    if i < 0 or j < i:
-        return None
-    return text[i + len(README_BEGIN):j].strip("\n")
+    span = _table_span(text)
+    return None if span is None else text[span[0]:span[1]].strip("\n")
 
 
 def update_readme(path: str | Path, table: str) -> None:
@@ -731,10 +732,10 @@ def update_readme(path: str | Path, table: str) -> None:
     naming the file when they are missing)."""
     path = Path(path)
     text = path.read_text()
-    i, j = text.find(README_BEGIN), text.find(README_END)
-    if i < 0 or j < i:
+    span = _table_span(text)
+    if span is None:
         raise ValueError(f"{path}: no results markers ({README_BEGIN!r} ... {README_END!r})")
-    path.write_text(text[:i + len(README_BEGIN)] + "\n" + table + "\n" + text[j:])
+    path.write_text(text[:span[0]] + "\n" + table + "\n" + text[span[1]:])
 
 
 # --------------------------------------------------------------------------------------------
