@@ -163,6 +163,11 @@ def _parser() -> argparse.ArgumentParser:
                         "(sqlite:///F.db, postgresql+psycopg://U:P@HOST/DB, mysql+pymysql://...), "
                         "journal:///PATH.log or a .log path (a journal file on a shared file "
                         "system), or a SQLite file (default RUNS_ROOT/STUDY/study.db)")
+    u.add_argument("--max-saturation", type=float, default=None, metavar="SHARE",
+                   help="constraint: a trial whose final model saturates (an action or a "
+                        "controller torque clipped) on more than this share of the steps "
+                        "(0..1, e.g. 0.25) is infeasible; the best config is the best feasible "
+                        "trial's")
     u.add_argument("--heartbeat", type=_positive_int, default=None, metavar="SECONDS",
                    help="seconds between a running trial's heartbeats (default 30); a trial "
                         "silent for 4x that is marked failed by the next worker")
@@ -361,7 +366,8 @@ def _cmd_tune(a: argparse.Namespace) -> int:
     tune(a.config, trials=a.trials, timesteps=a.timesteps, timeout=a.timeout, storage=a.storage,
          study_name=a.study_name, runs_root=a.runs_root, seed=a.seed, algo=a.algo,
          metric=a.metric, pruner=a.pruner, n_evals=a.evals, eval_episodes=a.eval_episodes,
-         out=a.out, enqueue_config=not a.no_enqueue, heartbeat=a.heartbeat, log=_print)
+         out=a.out, enqueue_config=not a.no_enqueue, heartbeat=a.heartbeat,
+         max_saturation=a.max_saturation, log=_print)
     return 0
 
 

@@ -172,6 +172,68 @@ def test_search_spaces_give_valid_configs(algo):
         study.tell(trial, 0.0)
 
 
+def _saturated_share(run_dir: Path, episodes: int) -> float:
+    """The final model's share of saturated steps, counted from ``info["saturated"]`` here."""
+    import numpy as np
+
+    from wheelgym.agents.common import make_single_env
+    from wheelgym.agents.policies import load_agent
+
+    config = load_config(run_dir / "config.yml")
+    agent = load_agent(run_dir / "model.zip", "ppo", run_dir / "vecnormalize.pkl")
+    env = make_single_env(config)
+    shares = []
+    for seed in range(100_000, 100_000 + episodes):
+        obs, _ = env.reset(seed=seed)
+        n = sat = 0
+        done = False
+        while not done:
+            obs, _, term, trunc, info = env.step(agent.predict(obs, deterministic=True)[0])
+            n += 1
+            sat += bool(np.any(info["saturated"]))
+            done = term or trunc
+        shares.append(sat / n)
+    env.close()
+    return float(np.mean(shares))
+
+
+def test_saturation_constraint_makes_saturated_trials_infeasible(tmp_path, capsys):
+    data = _config("track")
+    data[ENV_ID]["policy_kwargs"]["log_std_init"] = -1.0
+    # weak motors: the velocity controller's torques clip at nearly any command
+    data["wheelgym"]["env_kwargs"]["params"] = {"tau_drive_max": 0.01, "tau_steer_max": 0.01}
+    cfg = _write(tmp_path, data)
+    root = tmp_path / "runs"
+    args = ["tune", str(cfg), "--trials", "2", "--timesteps", "512", "--evals", "1",
+            "--eval-episodes", "1", "--runs-root", str(root)]
+    assert main([*args, "--study-name", "loose", "--max-saturation", "1"]) == 0
+    study = optuna.load_study(study_name="loose",
+                              storage=f"sqlite:///{root / 'loose' / 'study.db'}")
+    assert study.trials[0].params["log_std_init"] == -1.0  # the config's own, enqueued
+    shares = []
+    for t in study.trials:  # each trial's saturation, recounted from its final model
+        share = _saturated_share(Path(t.user_attrs["run_dir"]), 1)
+        assert t.user_attrs["saturation"] == pytest.approx(share, abs=1e-12)
+        assert list(t.constraints.values()) == [pytest.approx(share - 1.0)]
+        shares.append(share)
+    assert max(shares) > 0.0
+    assert "# constraint: saturation <= 100%" in (root / "loose" / "best.yml").read_text()
+    capsys.readouterr()
+    # No saturation allowed: the saturated trials are infeasible, never the best.
+    assert main([*args, "--study-name", "strict", "--max-saturation", "0"]) == 0
+    out = capsys.readouterr().out
+    study = optuna.load_study(study_name="strict",
+                              storage=f"sqlite:///{root / 'strict' / 'study.db'}")
+    feasible = [t for t in study.trials if t.user_attrs["saturation"] <= 0.0]
+    if feasible:
+        assert study.best_trial.number in {t.number for t in feasible}
+    else:
+        assert "no complete (feasible) trial, no config written" in out
+        assert not (root / "strict" / "best.yml").exists()
+    with pytest.raises(ValueError, match="max_saturation must be a share in"):
+        tune(cfg, trials=1, timesteps=512, max_saturation=1.5, runs_root=root)
+
+
 def test_on_eval_hook_sees_each_evaluation_and_can_stop_training(tmp_path):
     data = _config("track")
     data[ENV_ID]["n_timesteps"] = 2048

@@ -36,12 +36,19 @@ Search spaces (:data:`SEARCH_SPACES`; ``log``: log-uniform, ``float``: uniform, 
 PPO learning_rate log [1e-5, 3e-3]; n_steps {64 .. 1024}; batch_size {64 .. 1024} (at most
     n_steps x n_envs); n_epochs {3, 5, 10, 20}; gamma {0.95 .. 0.999}; gae_lambda {0.9 .. 0.99};
     clip_range {0.1, 0.2, 0.3}; ent_coef {0, 1e-4, 1e-3, 1e-2}; net_arch {32x32 .. 256x256};
-    activation_fn {tanh, relu}
+    activation_fn {tanh, relu}; log_std_init {-2, -1, 0} (the initial exploration noise, a
+    cause of bang-bang, saturated policies)
 SAC learning_rate log [1e-5, 3e-3]; batch_size {64 .. 512}; buffer_size {1e5, 3e5, 1e6};
     learning_starts {0, 1000, 10000}; train_freq {1, 4, 8, 16} (gradient_steps the same); tau
     {0.005 .. 0.05}; gamma {0.95 .. 0.999}; net_arch {64x64, 256x256, 400x300}
 TD3 as SAC, plus Gaussian action noise std float [0.05, 0.5]
 === ===========================================================================================
+
+With ``max_saturation`` (``--max-saturation F``) a trial that completes is also evaluated
+deterministically on the trial's evaluation episodes, and its share of saturated steps (an
+action or a controller torque clipped, as in the benchmark's ``agent_saturation``) becomes an
+Optuna constraint ``saturation - F <= 0``: the TPE sampler learns where the feasible region is,
+and the best trial (and so the written config) is the best feasible one.
 
 On tiny budgets PPO's ``n_steps`` is halved until a rollout fits the budget and off-policy
 ``learning_starts`` is capped at a tenth of it; a trial records the values it used.
@@ -94,6 +101,7 @@ SEARCH_SPACES: dict[str, dict[str, tuple]] = {
         "ent_coef": ("cat", (0.0, 1e-4, 1e-3, 1e-2)),
         "net_arch": ("cat", ("32x32", "64x64", "128x128", "256x256")),
         "activation_fn": ("cat", ("tanh", "relu")),
+        "log_std_init": ("cat", (-2.0, -1.0, 0.0)),
     },
     "sac": {
         "learning_rate": ("log", 1e-5, 3e-3),
@@ -121,7 +129,7 @@ PRUNERS: tuple[str, ...] = ("median", "halving", "none")
 HEARTBEAT_S = 30
 GRACE_S = 120
 
-_POLICY_KEYS = ("net_arch", "activation_fn")
+_POLICY_KEYS = ("net_arch", "activation_fn", "log_std_init")
 
 
 def _check_choice(name: str, value: Any, choices) -> None:
@@ -177,8 +185,8 @@ def apply_params(base: dict, algo: str, params: dict[str, Any], timesteps: int) 
     for name, value in params.items():
         if name == "net_arch":
             pk["net_arch"] = _arch(value)
-        elif name == "activation_fn":
-            pk["activation_fn"] = value
+        elif name in ("activation_fn", "log_std_init"):
+            pk[name] = value
         elif name == "noise_std":
             block["noise_type"], block["noise_std"] = "normal", float(value)
         elif name == "train_freq":
@@ -207,6 +215,8 @@ def _config_params(base: dict, algo: str) -> dict[str, Any]:
         values["net_arch"] = "x".join(str(n) for n in pk["net_arch"])
     if "activation_fn" in pk:
         values["activation_fn"] = pk["activation_fn"]
+    if algo == "ppo":  # SB3's PPO policy starts at log std 0 unless the config says otherwise
+        values["log_std_init"] = float(pk.get("log_std_init", 0.0))
     if "noise_std" in block:
         values["noise_std"] = block["noise_std"]
     out = {}
@@ -350,6 +360,9 @@ def _best_config_text(study) -> str:
         f"per trial (sampler seed {attrs.get('seed')}); base config {attrs.get('source')}\n"
         f"# written {stamp}; n_timesteps, seed and evaluation settings are the base config's\n"
     )
+    if attrs.get("max_saturation") is not None:
+        header += (f"# constraint: saturation <= {100 * attrs['max_saturation']:.0f}% of the steps "
+                   f"(trial {best.number}: {100 * best.user_attrs.get('saturation', 0.0):.0f}%)\n")
     return header + yaml.safe_dump(config.to_dict(), sort_keys=False)
 
 
@@ -393,6 +406,35 @@ class TuneResult:
     wall_s: float
 
 
+def _has_best(study) -> bool:
+    """Whether the study has a best trial (complete, and feasible under its constraints)."""
+    try:
+        return study.best_trial is not None
+    except ValueError:
+        return False
+
+
+def final_saturation(run_dir: str | Path, config: TrainConfig, episodes: int,
+                     seed: int = 100_000) -> float:
+    """Share of steps with an action or a controller torque clipped, mean over ``episodes``
+    deterministic episodes (seeds ``seed ..``) of the run's final model (the benchmark's
+    ``agent_saturation``); 0 where the env reports no saturation."""
+    from wheelgym.agents.evaluate import evaluate_policy_episodes
+    from wheelgym.agents.policies import load_agent
+
+    run_dir = Path(run_dir)
+    stats = run_dir / "vecnormalize.pkl"
+    agent = load_agent(run_dir / "model.zip", config.algo, stats if stats.is_file() else None,
+                       device=config.device)
+    env = make_single_env(config)
+    try:
+        eps = evaluate_policy_episodes(env, agent, range(seed, seed + episodes), record=False)
+    finally:
+        env.close()
+    sats = [e.saturation for e in eps if e.saturation is not None]
+    return float(sum(sats) / len(sats)) if sats else 0.0
+
+
 def _make_pruner(name: str, timesteps: int):
     """Median rule (after 5 trials, from a third of the budget on) or successive halving."""
     import optuna
@@ -423,6 +465,7 @@ def tune(
     out: str | Path | None = None,
     enqueue_config: bool = True,
     heartbeat: int | None = None,
+    max_saturation: float | None = None,
     log: Callable[[str], None] | None = None,
 ) -> TuneResult:
     """Run (or continue) an Optuna study on ``config``; write the best config at the end.
@@ -432,8 +475,10 @@ def tune(
     new trial starts; ``algo``: tune another algorithm than the config's (``ppo``, ``sac``,
     ``td3``); ``metric``: one of :data:`METRICS`; ``pruner``: one of :data:`PRUNERS`;
     ``n_evals``: evaluations per trial (pruning points); ``heartbeat``: seconds between a
-    running trial's heartbeats on a database storage. Ctrl-C stops the running trial (marked
-    failed), still writes the best config so far and re-raises ``KeyboardInterrupt``.
+    running trial's heartbeats on a database storage; ``max_saturation``: the largest share of
+    saturated steps (0..1) of a feasible trial (an Optuna constraint). Ctrl-C stops the
+    running trial (marked failed), still writes the best config so far and re-raises
+    ``KeyboardInterrupt``.
     """
     import optuna
 
@@ -449,6 +494,10 @@ def tune(
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     if timeout is not None and not (timeout > 0 and math.isfinite(timeout)):
         raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
+    if max_saturation is not None and (isinstance(max_saturation, bool)
+                                       or not isinstance(max_saturation, (int, float))
+                                       or not 0.0 <= max_saturation <= 1.0):
+        raise ValueError(f"max_saturation must be a share in [0, 1], got {max_saturation!r}")
     if trials is None and timeout is None:
         trials = 20
     steps = config.n_timesteps if timesteps is None else timesteps
@@ -484,13 +533,13 @@ def tune(
     if storage is not None:  # a shared study: this worker's folder, its own draws
         trials_dir = study_dir / worker
         sampler_seed = (sampler_seed + zlib.crc32(worker.encode())) % 2**32
-    sampler = optuna.samplers.TPESampler(seed=sampler_seed)
+    sampler = optuna.samplers.TPESampler(seed=sampler_seed)  # reads the trials' constraints
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(storage=store, study_name=name, direction=direction,
                                 sampler=sampler, pruner=_make_pruner(pruner, steps),
                                 load_if_exists=True)
     identity = {"base_config": base, "timesteps": steps, "metric": metric,
-                "eval_episodes": episodes, "n_evals": n_evals}
+                "eval_episodes": episodes, "n_evals": n_evals, "max_saturation": max_saturation}
     if "base_config" not in study.user_attrs:  # a new study: base_config is written last, so
         # a worker that sees it sees the others (workers started together all write them)
         for k, v in {**identity, "seed": seed, "source": config.source, "algo": algo}.items():
@@ -502,7 +551,8 @@ def tune(
     if diff:
         raise ValueError(
             f"study {name!r} in {text_of(url)} was made with other {', '.join(diff)} "
-            f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, base "
+            f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, "
+            f"max_saturation {attrs.get('max_saturation')}, base "
             f"{attrs.get('source')}); give another --study-name or the same settings")
     if direction != study.direction.name.lower():
         raise ValueError(f"study {name!r} is to {study.direction.name.lower()}, metric {metric!r} "
@@ -553,6 +603,10 @@ def tune(
             raise optuna.TrialPruned()
         if not values:
             raise ValueError("no evaluation happened (timesteps too small?)")
+        if max_saturation is not None:
+            sat = final_saturation(result.run_dir, cfg, episodes)
+            trial.set_user_attr("saturation", sat)
+            trial.set_constraint("saturation", sat - max_saturation)  # feasible: <= 0
         return values[-1]
 
     ran = 0
@@ -567,6 +621,8 @@ def tune(
         state = t.state.name.lower()
         if state == "complete":
             what = f"{metric} {t.value:.4g}"
+            if "saturation" in t.user_attrs:
+                what += f", saturation {100 * t.user_attrs['saturation']:.0f}%"
         elif state == "pruned":
             what = f"pruned at {t.last_step} steps"
         else:
@@ -574,7 +630,7 @@ def tune(
         try:
             bt = study.best_trial
             best = f"; best trial {bt.number}: {bt.value:.4g}"
-        except ValueError:
+        except ValueError:  # none complete, or none feasible
             best = ""
         log(f"trial {t.number} {what}{took}{best} ({t.user_attrs.get('run_dir', '-')})")
 
@@ -594,13 +650,13 @@ def tune(
     counts = _counts(study)
     path: Path | None = None
     best_value = best_number = None
-    if counts["complete"]:
+    if _has_best(study):
         path = _write_atomic(Path(out) if out is not None else study_dir / "best.yml",
                              _best_config_text(study))
         best_value, best_number = float(study.best_value), study.best_trial.number
     if log is not None:
         tail = (f"best trial {best_number}: {metric} {best_value:.4g}; wrote {path}"
-                if path is not None else "no complete trial, no config written")
+                if path is not None else "no complete (feasible) trial, no config written")
         log(f"study {name!r}: {counts['all']} trials ({counts['complete']} complete, "
             f"{counts['pruned']} pruned, {counts['failed']} failed); {tail}")
     if interrupted:
