@@ -73,6 +73,8 @@ def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path,
     study = optuna.load_study(study_name="tiny", storage=f"sqlite:///{root / 'tiny' / 'study.db'}")
     first = study.trials[0]
     assert first.params["n_steps"] == 128 and first.params["gamma"] == 0.99  # the config's own
+    # SB3's own defaults where the config names none (PPO: Tanh, initial log std 0)
+    assert first.params["activation_fn"] == "tanh" and first.params["log_std_init"] == 0.0
     assert [t.user_attrs["seed"] for t in study.trials] == [0, 1]
     for t in study.trials:
         assert Path(t.user_attrs["run_dir"]).parent == root / "tiny"

@@ -213,8 +213,8 @@ def _config_params(base: dict, algo: str) -> dict[str, Any]:
     pk = block.get("policy_kwargs", {})
     if isinstance(pk.get("net_arch"), list):
         values["net_arch"] = "x".join(str(n) for n in pk["net_arch"])
-    if "activation_fn" in pk:
-        values["activation_fn"] = pk["activation_fn"]
+    # SB3's defaults where the config names none: Tanh for PPO's MlpPolicy, ReLU off-policy
+    values["activation_fn"] = pk.get("activation_fn", "tanh" if algo == "ppo" else "relu")
     if algo == "ppo":  # SB3's PPO policy starts at log std 0 unless the config says otherwise
         values["log_std_init"] = float(pk.get("log_std_init", 0.0))
     if "noise_std" in block:
