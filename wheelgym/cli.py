@@ -215,6 +215,10 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--csv", type=Path, default=None,
                    help="results CSV, appended row by row; rows present are skipped "
                         "(default benchmarks/results/training.csv)")
+    b.add_argument("--drop-stale", action="store_true",
+                   help="remove the CSV's rows of the configs given that were made with other "
+                        "settings than their files now have (column config_sha), and, without "
+                        "--budget, those at another budget than n_timesteps; then train them")
     b.add_argument("--table", action="store_true",
                    help="only print the Markdown table of the CSV (no training)")
     b.add_argument("--curves", type=Path, default=None, metavar="OUT.png",
@@ -411,7 +415,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     else:
         table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds,
                               episodes=a.episodes, budget=a.budget, runs_root=a.runs_root,
-                              csv_path=csv_path, workers=a.workers, ray=a.ray, log=_print)
+                              csv_path=csv_path, workers=a.workers, ray=a.ray,
+                              drop_stale=a.drop_stale, log=_print)
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")

@@ -18,6 +18,7 @@ from wheelgym.agents.benchmark import (  # noqa: E402
     DEFAULT_CSV,
     _append_row,
     _scaled_eval_freq,
+    config_digest,
     default_configs,
     format_table,
     plot_curves,
@@ -158,6 +159,44 @@ def test_steps_to_baseline_reads_the_evaluation_history(tmp_path):
     old.write_text("timesteps,wall_s,mean_return,std_return,success_rate,mean_length\n"
                    "100,1,0,0,1.0,10\n")
     assert steps_to_baseline(old, 1.0, None) == 100 and steps_to_baseline(old, 1.0, 0.1) is None
+
+
+def test_a_retuned_configs_old_rows_are_stale(tmp_path, capsys):
+    cfg = _write_config(tmp_path, "tiny-goal", "goal")
+    out, runs = tmp_path / "training.csv", tmp_path / "runs"
+    kw = dict(seeds=1, episodes=1, csv_path=out, runs_root=runs)
+    data = yaml.safe_load(cfg.read_text())
+    data[ENV_ID]["n_timesteps"] = 512
+    cfg.write_text(yaml.safe_dump(data))
+    assert run_jobs([cfg], **kw).written == 1
+    (row,) = read_rows(out)
+    assert row["config_sha"] == config_digest(load_config(cfg)) and len(row["config_sha"]) == 12
+    # The seed and the checkpoint period do not make a row stale; a hyperparameter does.
+    data["wheelgym"].update(seed=7, checkpoint_freq=256)
+    cfg.write_text(yaml.safe_dump(data))
+    assert run_jobs([cfg], **kw).skipped == 1
+    data[ENV_ID]["learning_rate"] = 1e-3
+    cfg.write_text(yaml.safe_dump(data))
+    with pytest.raises(ValueError, match="made with other settings.*--drop-stale"):
+        run_jobs([cfg], **kw)
+    assert read_rows(out) == [row]  # nothing touched
+    again = run_jobs([cfg], **kw, drop_stale=True)
+    assert again.written == 1 and again.skipped == 0
+    (new,) = read_rows(out)
+    assert new["config_sha"] == config_digest(load_config(cfg)) != row["config_sha"]
+    # A new budget: --drop-stale also removes the rows at the old one (not with --budget).
+    data[ENV_ID]["n_timesteps"] = 768
+    cfg.write_text(yaml.safe_dump(data))
+    assert run_jobs([cfg], **kw, budget=512).skipped == 1  # an explicit budget: still there
+    rc = main(["benchmark", str(cfg), "--seeds", "1", "--episodes", "1", "--csv", str(out),
+               "--runs-root", str(runs), "--drop-stale"])
+    assert rc == 0 and "dropped 1 stale row(s)" in capsys.readouterr().out
+    assert [r["n_timesteps"] for r in read_rows(out)] == ["768"]
+    # A row from before the column (empty config_sha) counts as finished.
+    legacy = tmp_path / "legacy.csv"
+    legacy.write_text(out.read_text().replace(new["config_sha"], "").replace(
+        read_rows(out)[0]["config_sha"], ""))
+    assert run_jobs([cfg], **{**kw, "csv_path": legacy}).skipped == 1
 
 
 def test_rows_are_appended_whole_and_a_torn_line_is_skipped(tmp_path):

@@ -30,6 +30,8 @@ evaluation). ``run_dir``: the run folder, for the learning curves.
 from __future__ import annotations
 
 import csv
+import hashlib
+import json
 import math
 import os
 import signal
@@ -47,6 +49,7 @@ import wheelgym.agents.train as train_mod
 from wheelgym.agents.cluster import WORKER_ENV, run_on_ray
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
+    WHEELGYM_BLOCK,
     TrainConfig,
     configs_dir,
     load_config,
@@ -67,6 +70,7 @@ __all__ = [
     "plot_curves",
     "steps_to_baseline",
     "default_configs",
+    "config_digest",
     "BenchmarkSummary",
 ]
 
@@ -83,7 +87,7 @@ COLUMNS: tuple[str, ...] = (
     "agent_internal_force", "baseline_internal_force",
     "agent_saturation", "baseline_saturation",
     "baseline_eval_success", "baseline_eval_rms",
-    "run_dir", "finished_utc",
+    "run_dir", "finished_utc", "config_sha",
 )
 
 #: Episode attributes behind the metric columns: column suffix -> Episode attribute.
@@ -215,6 +219,8 @@ class _Job:
     levels: dict[str, Any] = field(default_factory=dict)
     #: The config's file form, for a worker that cannot read ``path`` (another machine).
     data: dict | None = None
+    #: :func:`config_digest` of the config as the benchmark was called with it.
+    digest: str = ""
 
     @property
     def key(self) -> tuple[str, int, int, int]:
@@ -255,6 +261,7 @@ def _run_job(job: _Job) -> dict | None:
         "baseline_eval_rms": _fmt(lv["eval_rms"]),
         "run_dir": str(result.run_dir),
         "finished_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "config_sha": job.digest,
     }
     for col in _METRICS:
         row[f"agent_{col}"] = _fmt(agent_s[col])
@@ -301,6 +308,49 @@ def read_rows(path: str | Path) -> list[dict[str, str]]:
         return [r for r in reader if None not in r and None not in r.values() and r.get("config")
                 and parse_number(r.get("n_timesteps")) is not None
                 and parse_number(r.get("seed")) is not None]
+
+
+def config_digest(config: TrainConfig) -> str:
+    """12 hex digits of SHA-256 over the config's file form, without what does not change a
+    result row (the seed, which each job sets, and the checkpoint period) and the budget (the
+    row key holds it): the ``config_sha`` column, by which a re-tuned config's old rows are told
+    apart from its new ones."""
+    data = config.to_dict()
+    for key in ("seed", "checkpoint_freq"):
+        data[WHEELGYM_BLOCK].pop(key, None)
+    next(v for k, v in data.items() if k != WHEELGYM_BLOCK).pop("n_timesteps", None)
+    text = json.dumps(data, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
+    """Rewrite ``path`` in place without the rows whose key is in ``stale``, under the lock the
+    appenders take (so that a row appended meanwhile by another process is kept); the number
+    dropped."""
+    with path.open("r+", newline="") as f:
+        try:
+            import fcntl
+
+            fcntl.flock(f, fcntl.LOCK_EX)
+        except (ImportError, OSError):
+            pass
+        reader = csv.DictReader(f)
+        header = list(reader.fieldnames or COLUMNS)
+        rows = [r for r in reader if None not in r and None not in r.values()]
+        keep = [r for r in rows if not (r.get("config") and _is_row(r) and _row_key(r) in stale)]
+        f.seek(0)
+        f.truncate()
+        w = csv.DictWriter(f, fieldnames=header)
+        w.writeheader()
+        w.writerows(keep)
+        f.flush()
+        os.fsync(f.fileno())
+    return len(rows) - len(keep)
+
+
+def _is_row(r: dict[str, str]) -> bool:
+    return (parse_number(r.get("n_timesteps")) is not None
+            and parse_number(r.get("seed")) is not None)
 
 
 def _row_key(r: dict[str, str]) -> tuple[str, int, int, int]:
@@ -367,6 +417,7 @@ def run_jobs(
     runs_root: str | Path = "runs/benchmark",
     workers: int | None = None,
     ray: str | None = None,
+    drop_stale: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> BenchmarkSummary:
     """Train and score every (config, seed) whose row is not in ``csv_path`` yet; append rows.
@@ -377,6 +428,13 @@ def run_jobs(
     then caps the tasks at a time (``local``: the instance's CPUs; default all), and a task
     that raised is retried once. Ctrl-C keeps the finished rows (running jobs stop and are
     dropped) and re-raises ``KeyboardInterrupt``; a job that raised is reported in ``failed``.
+
+    A row is finished when its key (config name, seed, budget, episodes) is in the CSV and its
+    ``config_sha`` is the config's :func:`config_digest` (or empty: a row from before the
+    column). Rows of a config made with other settings (a re-tuned config) are stale: the call
+    refuses (``ValueError``) unless ``drop_stale``, which removes them first, and with them,
+    when no ``budget`` or ``quick`` is given, the config's rows at budgets other than its
+    ``n_timesteps``; the stale rows' runs are then trained again.
     """
     for name, value in (("seeds", seeds), ("episodes", episodes), ("workers", workers)):
         if value is None and name == "workers":
@@ -396,7 +454,30 @@ def run_jobs(
         raise ValueError(f"--csv {str(csv_path)!r} is a folder; give a file name")
     paths = [Path(p) for p in configs] if configs else default_configs()
     loaded = [(p, load_config(p)) for p in paths]  # every config checked before any work
-    done = {_row_key(r) for r in read_rows(csv_path)} if csv_path.is_file() else set()
+    present = read_rows(csv_path) if csv_path.is_file() else []
+    digests = {p.stem: config_digest(c) for p, c in loaded}
+    stale = set()
+    for r in present:
+        name = r["config"]
+        if name not in digests:
+            continue
+        sha = r.get("config_sha") or ""
+        other_budget = (budget is None and not quick and int(float(r["n_timesteps"]))
+                        != next(c.n_timesteps for p, c in loaded if p.stem == name))
+        if (sha and sha != digests[name]) or (drop_stale and other_budget):
+            stale.add(_row_key(r))
+    if stale and not drop_stale:
+        names = sorted({k[0] for k in stale})
+        raise ValueError(f"{csv_path} holds {len(stale)} row(s) of {names} made with other "
+                         f"settings than the config files now have (column config_sha); give "
+                         f"--drop-stale to remove them and train again, or another --csv")
+    if stale:
+        n = _drop_rows(csv_path, stale)
+        if log is not None:
+            log(f"benchmark: dropped {n} stale row(s) of "
+                f"{sorted({k[0] for k in stale})} from {csv_path}")
+        present = read_rows(csv_path)
+    done = {_row_key(r) for r in present}
 
     jobs: list[_Job] = []
     skipped = 0
@@ -404,7 +485,8 @@ def run_jobs(
         steps = budget if budget is not None else (
             max(config.n_timesteps // 10, 2048) if quick else config.n_timesteps)
         for s in range(seeds):
-            job = _Job(str(path), path.stem, s, steps, episodes, str(root))
+            job = _Job(str(path), path.stem, s, steps, episodes, str(root),
+                       digest=digests[path.stem])
             if ray is not None:
                 job.data = safe_load_config_yaml(path)
             if job.key in done:
@@ -536,6 +618,7 @@ def run_benchmark(
     csv_path: str | Path = DEFAULT_CSV,
     workers: int | None = None,
     ray: str | None = None,
+    drop_stale: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> str:
     """:func:`run_jobs`, then the Markdown table of this call's configs, budgets and episodes.
@@ -549,7 +632,7 @@ def run_benchmark(
     paths = [Path(p) for p in configs] if configs else default_configs()
     summary = run_jobs(paths, seeds=n_seeds, episodes=n_eps, budget=budget, quick=quick,
                        csv_path=csv_path, runs_root=runs_root, workers=workers, ray=ray,
-                       log=log)
+                       drop_stale=drop_stale, log=log)
     wanted = set()
     for p in paths:
         c = load_config(p)
