@@ -30,6 +30,7 @@ from pathlib import Path
 import yaml
 
 from wheelgym.agents.config import WHEELGYM_BLOCK, parse_config
+from wheelgym.agents.tune import _POLICY_KEYS as POLICY_KEYS
 from wheelgym.agents.tune import SEARCH_SPACES, _load_study
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -37,7 +38,6 @@ STUDIES_CSV = RESULTS / "studies.csv"
 COLUMNS = ("study", "base_config", "algo", "metric", "max_saturation", "timesteps_per_trial",
            "trials", "complete", "pruned", "failed", "best_trial", "best_value",
            "best_saturation", "best_params", "trial_wall_s_total", "applied_to", "date")
-POLICY_KEYS = ("net_arch", "activation_fn", "log_std_init")
 
 
 def _summary(study) -> dict:

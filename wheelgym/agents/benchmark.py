@@ -305,9 +305,7 @@ def read_rows(path: str | Path) -> list[dict[str, str]]:
                                                                             or [])]
         if missing:
             raise ValueError(f"{path}: not a results CSV (no columns {missing})")
-        return [r for r in reader if None not in r and None not in r.values() and r.get("config")
-                and parse_number(r.get("n_timesteps")) is not None
-                and parse_number(r.get("seed")) is not None]
+        return [r for r in reader if _is_row(r)]
 
 
 def config_digest(config: TrainConfig) -> str:
@@ -328,16 +326,11 @@ def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
     appenders take (so that a row appended meanwhile by another process is kept); the number
     dropped."""
     with path.open("r+", newline="") as f:
-        try:
-            import fcntl
-
-            fcntl.flock(f, fcntl.LOCK_EX)
-        except (ImportError, OSError):
-            pass
+        _lock(f)
         reader = csv.DictReader(f)
         header = list(reader.fieldnames or COLUMNS)
         rows = [r for r in reader if None not in r and None not in r.values()]
-        keep = [r for r in rows if not (r.get("config") and _is_row(r) and _row_key(r) in stale)]
+        keep = [r for r in rows if not (_is_row(r) and _row_key(r) in stale)]
         f.seek(0)
         f.truncate()
         w = csv.DictWriter(f, fieldnames=header)
@@ -349,8 +342,21 @@ def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
 
 
 def _is_row(r: dict[str, str]) -> bool:
-    return (parse_number(r.get("n_timesteps")) is not None
+    """A whole row (not a torn line) with a config name, seed and budget."""
+    return (None not in r and None not in r.values() and bool(r.get("config"))
+            and parse_number(r.get("n_timesteps")) is not None
             and parse_number(r.get("seed")) is not None)
+
+
+def _lock(f) -> None:
+    """Hold an exclusive lock on the open CSV ``f`` (appenders and rewriters take it; a no-op
+    where ``fcntl`` is missing)."""
+    try:
+        import fcntl
+
+        fcntl.flock(f, fcntl.LOCK_EX)
+    except (ImportError, OSError):
+        pass
 
 
 def _row_key(r: dict[str, str]) -> tuple[str, int, int, int]:
@@ -362,12 +368,7 @@ def _append_row(path: Path, row: dict[str, Any]) -> None:
     """Append one row (header first in a new file); flushed and fsync'd before returning."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("a+", newline="") as f:
-        try:
-            import fcntl
-
-            fcntl.flock(f, fcntl.LOCK_EX)  # another benchmark process appending meanwhile
-        except (ImportError, OSError):
-            pass
+        _lock(f)  # another benchmark process appending meanwhile
         f.seek(0, os.SEEK_END)
         if f.tell() == 0:
             header = list(COLUMNS)
@@ -456,14 +457,15 @@ def run_jobs(
     loaded = [(p, load_config(p)) for p in paths]  # every config checked before any work
     present = read_rows(csv_path) if csv_path.is_file() else []
     digests = {p.stem: config_digest(c) for p, c in loaded}
+    budgets = {p.stem: c.n_timesteps for p, c in loaded}
     stale = set()
     for r in present:
         name = r["config"]
         if name not in digests:
             continue
         sha = r.get("config_sha") or ""
-        other_budget = (budget is None and not quick and int(float(r["n_timesteps"]))
-                        != next(c.n_timesteps for p, c in loaded if p.stem == name))
+        other_budget = (budget is None and not quick
+                        and int(float(r["n_timesteps"])) != budgets[name])
         if (sha and sha != digests[name]) or (drop_stale and other_budget):
             stale.add(_row_key(r))
     if stale and not drop_stale:

@@ -422,9 +422,8 @@ def final_saturation(run_dir: str | Path, config: TrainConfig, episodes: int,
     from wheelgym.agents.evaluate import evaluate_policy_episodes
     from wheelgym.agents.policies import load_agent
 
-    run_dir = Path(run_dir)
-    stats = run_dir / "vecnormalize.pkl"
-    agent = load_agent(run_dir / "model.zip", config.algo, stats if stats.is_file() else None,
+    run_dir = Path(run_dir)  # no vecnormalize.pkl (normalize off): load_agent takes None
+    agent = load_agent(run_dir / "model.zip", config.algo, run_dir / "vecnormalize.pkl",
                        device=config.device)
     env = make_single_env(config)
     try:
