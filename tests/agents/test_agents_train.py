@@ -151,3 +151,38 @@ def test_sigint_leaves_a_loadable_model(tmp_path):
     agent = load_agent(model_path, "ppo", stats)
     assert agent.obs_norm is not None
     assert 0 < agent.model.num_timesteps < 10_000_000
+
+
+@pytest.mark.parametrize("vec_env", ["native", "dummy"])
+def test_reward_schedule_changes_the_training_envs_weights(tmp_path, vec_env):
+    # success 10 -> 25 at step 512, effort from its default 0.01 to 0.5 at step 768
+    schedule = {"success": [[0, 10.0], [512, 25.0]], "effort": [[768, 0.5]]}
+    cfg = parse_config(tiny_config(vec_env=vec_env, reward_schedule=schedule))
+    assert cfg.to_dict()["wheelgym"]["reward_schedule"] == schedule  # written back as read
+    res = train(cfg, runs_root=tmp_path, progress=False)
+    assert res.status == "finished"
+    with (res.run_dir / "reward_weights.csv").open() as f:
+        rows = [(int(r["timesteps"]), r["term"], float(r["weight"])) for r in csv.DictReader(f)]
+    # n_envs 2: the callback sees every second step; the weights the envs hold after each change
+    assert rows == [(0, "success", 10.0), (512, "success", 25.0),
+                    (768, "effort", 0.5), (768, "success", 25.0)]
+    # a resumed run starts with the weights of its step, not the env's defaults
+    resume(res.run_dir, total_timesteps=1280, progress=False)
+    with (res.run_dir / "reward_weights.csv").open() as f:
+        tail = list(csv.DictReader(f))[-2:]
+    assert [(int(r["timesteps"]), r["term"], float(r["weight"])) for r in tail] == [
+        (1024, "effort", 0.5), (1024, "success", 25.0)]
+
+
+def test_reward_schedule_is_checked(tmp_path):
+    with pytest.raises(ValueError, match="steps must increase"):
+        parse_config(tiny_config(reward_schedule={"success": [[512, 1.0], [0, 2.0]]}))
+    with pytest.raises(ValueError, match=r"\[step >= 0"):
+        parse_config(tiny_config(reward_schedule={"success": [[-1, 1.0]]}))
+    with pytest.raises(ValueError, match="finite"):
+        parse_config(tiny_config(reward_schedule={"success": [[0, float("nan")]]}))
+    # a term the env does not have: refused before a run folder is made, naming the terms
+    cfg = parse_config(tiny_config(reward_schedule={"lost": [[0, 1.0]]}))
+    with pytest.raises(ValueError, match=r"\['lost'\].*valid terms: \['progress'"):
+        train(cfg, runs_root=tmp_path, progress=False)
+    assert not any(tmp_path.iterdir())

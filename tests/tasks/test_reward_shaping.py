@@ -98,3 +98,32 @@ def test_saturation_term_follows_the_flag(robot, task):
         if term or trunc:
             env.reset()
     assert any(flags) and not all(flags)  # both branches were seen
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_set_reward_weights_takes_effect_on_the_next_step(vector):
+    kw = dict(task="goal", action_mode="torque")
+    env = (gym.make_vec("wheelgym/ThreeWheel-v0", num_envs=2,
+                        vectorization_mode="vector_entry_point", **kw)
+           if vector else gym.make("wheelgym/ThreeWheel-v0", **kw))
+    u = env.unwrapped if not vector else env
+    env.reset(seed=5)
+    a = np.tile(np.array([0.4, -0.3, 0.2, 0.1, -0.2, 0.3], dtype=np.float32),
+                (2, 1) if vector else (1,))
+    env.step(a)
+    u.set_reward_weights({"internal_force": 2.0, "effort": 0.0})
+    assert u.reward_weights["internal_force"] == 2.0 and u.reward_weights["progress"] == 1.0
+    _, r, _, _, info = env.step(a)
+    terms = {k: v for k, v in info["reward_terms"].items() if not k.startswith("_")}  # masks
+    xf = np.asarray(info["internal_force"])
+    scale = math.sqrt(3 * 6.0**2 + 3 * 3.0**2)  # |tau_max| of the default motors
+    np.testing.assert_allclose(terms["internal_force"], -2.0 * xf / scale, rtol=1e-12)
+    np.testing.assert_array_equal(terms["effort"], 0.0)
+    np.testing.assert_allclose(sum(terms.values()), r, atol=1e-12)
+    assert np.all(xf > 0)
+    before = u.reward_weights
+    with pytest.raises(ValueError, match="valid keys"):
+        u.set_reward_weights({"internal_force": 1.0, "lost": 1.0})
+    with pytest.raises(ValueError, match="finite"):
+        u.set_reward_weights({"effort": math.inf})
+    assert u.reward_weights == before  # a refused change changes nothing

@@ -47,7 +47,7 @@ import inspect
 import math
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -217,6 +217,45 @@ def _net_arch(v: Any) -> list | dict:
             raise ValueError(f"net_arch keys {bad} unknown; valid keys: ['pi', 'vf', 'qf']")
         return {k: layers(x) for k, x in v.items()}
     return layers(v)
+
+
+def _reward_schedule(v: Any) -> dict[str, list[list]] | None:
+    """``{term: [[step, weight], ...]}``: from ``step`` training steps on, the term's weight is
+    ``weight`` (piecewise constant; steps ascending, the first may be above 0, before it the
+    env's own weight holds). The env checks the term names when training starts."""
+    if v is None:
+        return None
+    if not isinstance(v, dict) or not v:
+        raise ValueError(f"must be a mapping term -> [[step, weight], ...], got {v!r}")
+    out: dict[str, list[list]] = {}
+    for term, points in v.items():
+        if not isinstance(term, str):
+            raise ValueError(f"term names must be strings, got {term!r}")
+        if not isinstance(points, list) or not points:
+            raise ValueError(f"{term}: must be a non-empty list of [step, weight], got {points!r}")
+        clean: list[list] = []
+        for p in points:
+            if (not isinstance(p, list) or len(p) != 2 or not _is_int(p[0]) or p[0] < 0
+                    or not _is_num(p[1])):
+                raise ValueError(f"{term}: each point must be [step >= 0 (integer), finite "
+                                 f"weight], got {p!r}")
+            if clean and p[0] <= clean[-1][0]:
+                raise ValueError(f"{term}: steps must increase, got {[q[0] for q in points]}")
+            clean.append([int(p[0]), float(p[1])])
+        out[term] = clean
+    return out
+
+
+def weights_at(schedule: Mapping[str, Sequence[Sequence[float]]] | None,
+               step: int) -> dict[str, float]:
+    """The weights a :attr:`TrainConfig.reward_schedule` sets at training step ``step`` (terms
+    whose first point lies ahead are left out: the env's own weight holds)."""
+    out: dict[str, float] = {}
+    for term, points in (schedule or {}).items():
+        for at, w in points:
+            if at <= step:
+                out[term] = float(w)
+    return out
 
 
 def _check_table(v: dict, table: dict[str, Any]) -> dict:
@@ -478,6 +517,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "vec_env": _choice(*VEC_ENVS),
     "device": _choice(*DEVICES),
     "torch_threads": _int(1),
+    "reward_schedule": _reward_schedule,
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -489,6 +529,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "vec_env": "dummy",
     "device": "cpu",
     "torch_threads": 1,
+    "reward_schedule": None,
 }
 
 
@@ -515,6 +556,8 @@ class TrainConfig:
     vec_env        ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
     device         torch device
     torch_threads  ``torch.set_num_threads`` value (1 is fastest for small MLPs)
+    reward_schedule ``None`` or ``{term: [[step, weight], ...]}``: reward weights changed during
+                   training (a curriculum; piecewise constant in training steps)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -534,6 +577,7 @@ class TrainConfig:
     vec_env: str = "dummy"
     device: str = "cpu"
     torch_threads: int = 1
+    reward_schedule: dict | None = None
     source: str = "<dict>"
 
     @property
@@ -589,6 +633,8 @@ class TrainConfig:
             "device": self.device,
             "torch_threads": self.torch_threads,
         }
+        if self.reward_schedule is not None:  # absent by default (old files stay the same)
+            wg["reward_schedule"] = copy.deepcopy(self.reward_schedule)
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -702,6 +748,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         vec_env=wg["vec_env"],
         device=wg["device"],
         torch_threads=wg["torch_threads"],
+        reward_schedule=wg["reward_schedule"],
         source=source,
     )
 

@@ -16,6 +16,8 @@ best_model.zip         the model of the best evaluation (and ``best_vecnormalize
 checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
 tb/                    TensorBoard logs
 run.json               ``status``, steps, wall time, versions; ``error`` when failed
+reward_weights.csv     with a ``reward_schedule``: each change of the reward weights (step,
+                       term, the weight the training envs then hold)
 run.lock               present while a process trains in the folder (holds its pid)
 ====================== ======================================================================
 
@@ -61,7 +63,7 @@ from wheelgym.agents.common import (
     make_train_env,
     wrap_normalize,
 )
-from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.config import TrainConfig, load_config, weights_at
 from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
 from wheelgym.agents.policies import AgentPolicy
 
@@ -335,6 +337,9 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
             if self.env is None:
                 self.env = make_single_env(config)
                 self.with_rms = "rms_tracking_error" in applicable_metrics(self.env)
+            if config.reward_schedule:  # returns scored with the weights training has now
+                self.env.unwrapped.set_reward_weights(
+                    weights_at(config.reward_schedule, self.num_timesteps))
             norm = self.model.get_vec_normalize_env()
             policy = AgentPolicy(self.model, norm)
             seeds = [EVAL_HISTORY_SEED + i for i in range(config.eval_episodes)]
@@ -376,7 +381,41 @@ def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSign
             if self.env is not None:
                 self.env.close()
 
+    class RewardSchedule(BaseCallback):
+        """Sets ``config.reward_schedule``'s weights on the training envs as steps pass its
+        points (also at the start, so a resumed run continues with its weights)."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.now: dict[str, float] | None = None
+
+        def _apply(self) -> None:
+            w = weights_at(config.reward_schedule, self.num_timesteps)
+            if w != self.now:
+                self.training_env.env_method("set_reward_weights", w)
+                set_now = self.training_env.get_attr("reward_weights")[0]
+                path = run_dir / "reward_weights.csv"  # the record of each change
+                new = not path.exists()
+                with path.open("a", newline="") as f:
+                    out = csv.writer(f)
+                    if new:
+                        out.writerow(["timesteps", "term", "weight"])
+                    for k in sorted(w):
+                        out.writerow([self.num_timesteps, k, repr(set_now[k])])
+                self.now = w
+                for k, v in w.items():
+                    self.logger.record(f"reward_weights/{k}", v)
+
+        def _on_training_start(self) -> None:
+            self._apply()
+
+        def _on_step(self) -> bool:
+            self._apply()
+            return True
+
     callbacks: list = [StopCallback()]
+    if config.reward_schedule:
+        callbacks.append(RewardSchedule())
     if progress:
         callbacks.append(ProgressBarCallback())
     if config.checkpoint_freq > 0:
@@ -512,6 +551,7 @@ def train(
         try:
             venv = wrap_normalize(make_train_env(config), config)
             try:
+                check_reward_schedule(config, venv)
                 model = build_model(config, venv, tensorboard_log=str(out / "tb"),
                                     verbose=verbose)
             except BaseException:
@@ -536,6 +576,17 @@ def train(
         return _learn(config, model, out, config.n_timesteps, progress, info, True, on_eval)
     finally:
         lock.release()
+
+
+def check_reward_schedule(config: TrainConfig, venv) -> None:
+    """``ValueError`` naming the schedule's terms that the env does not have, and its terms."""
+    if not config.reward_schedule:
+        return
+    names = list(venv.get_attr("reward_weights")[0])
+    bad = [k for k in config.reward_schedule if k not in names]
+    if bad:
+        raise ValueError(f"{config.source}: reward_schedule terms {bad} unknown for "
+                         f"{config.env_id} {config.env_kwargs}; valid terms: {names}")
 
 
 _CKPT = re.compile(r"ckpt_(\d+)_steps\.zip$")
@@ -587,6 +638,7 @@ def resume(
         # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
         venv = make_train_env(config, seed=config.seed + 7919)
         try:
+            check_reward_schedule(config, venv)
             if config.normalize is not None:
                 if stats_path is None:
                     raise ValueError(

@@ -38,7 +38,8 @@ sanity limits. Layout by task (the robot's features, listed above, come after th
 ## Rewards
 
 Named terms, each weighted (``reward_weights`` overrides; unknown keys raise listing the valid
-ones); ``info["reward_terms"]`` holds the weighted terms and they add up to the reward.
+ones; ``set_reward_weights`` changes them between steps); ``info["reward_terms"]`` holds the
+weighted terms and they add up to the reward.
 
 | term           | task            | value (before the weight)                       | weight |
 |----------------|-----------------|--------------------------------------------------|--------|
@@ -308,6 +309,19 @@ class WheelEnv(gym.Env):
         state = self.__dict__.copy()
         state["_renderer"] = None
         return state
+
+    # ------------------------------------------------------------------ reward weights
+    @property
+    def reward_weights(self) -> dict[str, float]:
+        """The weight of each reward term now (a copy; see the "Rewards" table)."""
+        return dict(self.core.task.weights)
+
+    def set_reward_weights(self, weights: dict[str, float]) -> None:
+        """Change the weights of the named reward terms from the next step on (the others
+        keep theirs), e.g. a curriculum during training. Unknown keys raise ``ValueError``
+        listing the valid ones; a weight that is not a finite number raises; nothing changes
+        then."""
+        self.core.task.set_weights(weights)
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):

@@ -84,14 +84,26 @@ class Task:
 
     def __init__(self, core: BatchView, weights: Mapping[str, float] | None) -> None:
         self.core = core
-        spec = core.spec
-        names = self.term_names(spec)
-        w = dict(self.default_weights)
+        names = self.term_names(core.spec)
+        self.term_index = np.array([self.columns.index(k) for k in names])
+        self.names = names
+        self.weights = {k: float(self.default_weights[k]) for k in names}
+        self.W = np.zeros(len(self.columns))
+        self.set_weights(weights)
+
+    def set_weights(self, weights: Mapping[str, float] | None) -> None:
+        """Change the weights of the named terms (the others keep theirs) from the next
+        evaluation on. ``ValueError`` names an unknown key and lists the valid ones;
+        ``TypeError``/``ValueError`` for a weight that is not a finite real number. Nothing
+        changes when a key or weight is bad."""
+        if weights is not None and not isinstance(weights, Mapping):
+            raise TypeError(f"reward_weights must be a dict, got {weights!r}")
+        w = dict(self.weights)
         for k, v in dict(weights or {}).items():
-            if k not in names:
+            if k not in self.names:
                 raise ValueError(
-                    f"unknown reward_weights key {k!r} for task {self.name!r} on {spec.name}; "
-                    f"valid keys: {list(names)}"
+                    f"unknown reward_weights key {k!r} for task {self.name!r} on "
+                    f"{self.core.spec.name}; valid keys: {list(self.names)}"
                 )
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
                 raise TypeError(f"reward_weights[{k!r}] must be a real number, got {v!r}")
@@ -99,12 +111,11 @@ class Task:
             if not math.isfinite(v):
                 raise ValueError(f"reward_weights[{k!r}] must be finite, got {v!r}")
             w[k] = v
-        self.weights = {k: w[k] for k in names}
-        self.W = np.array([self.weights.get(c, 0.0) for c in self.columns])
-        if "internal_force" in names:  # the term is |P tau| / |tau_max| (0..1), see below
-            self.W[self.columns.index("internal_force")] /= internal_force_scale(core)
-        self.term_index = np.array([self.columns.index(k) for k in names])
-        self.names = names
+        self.weights = w
+        # in place: the kernels read this array at every evaluation
+        self.W[:] = [w.get(c, 0.0) for c in self.columns]
+        if "internal_force" in w:  # the term is |P tau| / |tau_max| (0..1), see below
+            self.W[self.columns.index("internal_force")] /= internal_force_scale(self.core)
 
     def term_names(self, spec: RobotConstants) -> tuple[str, ...]:
         return tuple(c for c in self.columns if c != "internal_force"

@@ -271,6 +271,16 @@ class WheelVectorEnv(VectorEnv):
         return {"observation": obs, "achieved_goal": task.achieved_goal(),
                 "desired_goal": task.desired_goal()}
 
+    @property
+    def reward_weights(self) -> dict[str, float]:
+        """The weight of each reward term now, shared by all sub-envs (a copy)."""
+        return dict(self.core.task.weights)
+
+    def set_reward_weights(self, weights: dict[str, float]) -> None:
+        """Change the named reward terms' weights of every sub-env from the next step on (the
+        single env's :meth:`~wheelgym.envs.WheelEnv.set_reward_weights`)."""
+        self.core.task.set_weights(weights)
+
     def _goal_task(self) -> Any:
         if not self.goal_conditioned:
             raise RuntimeError("compute_reward needs goal_conditioned=True")
