@@ -20,7 +20,11 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(VENV)/bin/wheelgym main
 
+# The kernels are compiled into numba's disk cache first, each in one of two processes: left
+# to the two test workers, both would compile the costliest ones at the same time. ThreeWheel's
+# DC kernels (minutes to compile) are only used by the slow tests.
 test: $(STAMP)
+	$(PY) -m wheelgym.warmup --processes 2 --skip-dc ThreeWheel
 	$(PY) -m pytest -q -n 2 --dist loadgroup
 
 test-slow: $(STAMP)

@@ -18,3 +18,33 @@ def test_ci_runs_the_readme_test_command() -> None:
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert "make test" in ci and "make test" in readme
+
+
+def test_make_test_compiles_the_kernels_before_the_suite() -> None:
+    lines = [ln.strip() for ln in (ROOT / "Makefile").read_text(encoding="utf-8").splitlines()]
+    body = lines[lines.index("test: $(STAMP)") + 1:][:2]
+    assert body[0].startswith("$(PY) -m wheelgym.warmup") and "pytest" in body[1]
+
+
+def test_warmup_jobs_cover_every_kernel_once() -> None:
+    import pytest
+
+    from wheelgym.envs.robots import available_robots, get_spec
+    from wheelgym.warmup import warm_jobs, warm_one
+
+    jobs = warm_jobs()
+    assert len(set(jobs)) == len(jobs)
+    for robot in available_robots():
+        spec = get_spec(robot)
+        for mode in spec.action_modes:
+            motors = ("ideal", "dc") if spec.n_motor else (None,)
+            assert all((robot, mode, m) in jobs for m in motors), (robot, mode)
+        assert ((robot, "voltage", None) in jobs) == (spec.n_motor > 0)
+    skipped = warm_jobs(("ThreeWheel",))
+    assert set(jobs) - set(skipped) == {("ThreeWheel", "voltage", None),
+                                        ("ThreeWheel", "torque", "dc"),
+                                        ("ThreeWheel", "velocity", "dc")}
+    with pytest.raises(ValueError, match="unknown robots.*valid"):
+        warm_jobs(("Tricycle",))
+    job, seconds = warm_one(("Unicycle", "VehicleSpeedHeadingRate", None))
+    assert job[0] == "Unicycle" and seconds >= 0.0

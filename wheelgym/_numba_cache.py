@@ -46,3 +46,4 @@ def guard(module_file: str, *dep_modules: str) -> None:
             fh.write(stamp)
     except OSError:  # read-only install: numba then compiles in memory
         pass
+
