@@ -30,21 +30,20 @@ def test_warmup_jobs_cover_every_kernel_once() -> None:
     import pytest
 
     from wheelgym.envs.robots import available_robots, get_spec
-    from wheelgym.warmup import warm_jobs, warm_one
+    from wheelgym.warmup import _combos, warm_jobs, warm_one
 
     jobs = warm_jobs()
-    assert len(set(jobs)) == len(jobs)
+    combos = [(job[0], tuple(sorted(kw.items()))) for job in jobs for kw in _combos(job)]
+    assert len(set(combos)) == len(combos)  # each combination in one job only
     for robot in available_robots():
         spec = get_spec(robot)
-        for mode in spec.action_modes:
-            motors = ("ideal", "dc") if spec.n_motor else (None,)
-            assert all((robot, mode, m) in jobs for m in motors), (robot, mode)
-        assert ((robot, "voltage", None) in jobs) == (spec.n_motor > 0)
-    skipped = warm_jobs(("ThreeWheel",))
-    assert set(jobs) - set(skipped) == {("ThreeWheel", "voltage", None),
-                                        ("ThreeWheel", "torque", "dc"),
-                                        ("ThreeWheel", "velocity", "dc")}
+        expect = {(("action_mode", m),) for m in spec.action_modes}
+        if spec.n_motor:
+            expect |= {(("action_mode", "voltage"),)}
+            expect |= {(("action_mode", m), ("motor", "dc")) for m in spec.action_modes}
+        assert {c for r, c in combos if r == robot} == expect, robot
+    assert set(jobs) - set(warm_jobs(("ThreeWheel",))) == {("ThreeWheel", "dc")}
     with pytest.raises(ValueError, match="unknown robots.*valid"):
         warm_jobs(("Tricycle",))
-    job, seconds = warm_one(("Unicycle", "VehicleSpeedHeadingRate", None))
-    assert job[0] == "Unicycle" and seconds >= 0.0
+    job, seconds = warm_one(("Unicycle", None))
+    assert job == ("Unicycle", None) and seconds >= 0.0

@@ -17,64 +17,80 @@ import multiprocessing as mp
 import time
 
 import gymnasium as gym
+import numpy as np
 
 from wheelgym.agents.policies import make_baseline
 from wheelgym.envs.robots import available_robots, get_spec
 from wheelgym.envs.robots.body import PAR_MIN_ROWS
+from wheelgym.models import PARALLEL_MIN_BATCH
 from wheelgym.registration import env_id
 
-#: (robot, action mode, motor or None for the mode's own)
-Job = tuple[str, str, "str | None"]
+#: (robot, motor family): ``"ideal"`` (the robot's action modes with ideal motors), ``"dc"``
+#: (the voltage mode and the modes with ``motor="dc"``), or ``None`` (kinematic robots).
+Job = tuple[str, "str | None"]
 
 
 def warm_jobs(skip_dc: tuple[str, ...] = ()) -> list[Job]:
-    """(robot, action mode, motor) combinations whose kernels differ, costliest first; none
-    with DC motors (``motor="dc"``, the voltage mode) for the robots in ``skip_dc``.
+    """The jobs, costliest first; no ``"dc"`` job for the robots in ``skip_dc``.
 
-    A fresh checkout compiles each on first use; two test processes that need the same kernel
-    at once both compile it (ThreeWheel's DC kernels alone take minutes).
+    A job holds the combinations that share compiled kernels (a robot's torque and velocity
+    modes step through one kernel), so that no two processes compile the same kernel.
     """
     unknown = [r for r in skip_dc if r not in available_robots()]
     if unknown:
         raise ValueError(f"skip_dc: unknown robots {unknown}; valid: {available_robots()}")
+    cost = {"ThreeWheel": 0, "SkidSteer": 1, "CasterAGV": 2}  # measured: 170 / 90 / 35 s
     jobs: list[Job] = []
-    for robot in available_robots():
-        spec = get_spec(robot)
-        if spec.n_motor > 0:
-            dc = robot not in skip_dc
-            if dc:
-                jobs.append((robot, "voltage", None))
-            for mode in spec.action_modes:
-                jobs += [(robot, mode, "ideal")] + ([(robot, mode, "dc")] if dc else [])
-        else:
-            jobs += [(robot, mode, None) for mode in spec.action_modes]
-    # the DC-motor torque/velocity kernels last: they share pieces with the voltage mode's,
-    # which are then in the cache
-    order = {"ThreeWheel": 0, "SkidSteer": 1, "CasterAGV": 2}
-    return sorted(jobs, key=lambda j: (j[2] == "dc", order.get(j[0], 3), j[1] != "voltage"))
+    for robot in sorted(available_robots(), key=lambda r: cost.get(r, 3)):
+        if get_spec(robot).n_motor == 0:
+            jobs.append((robot, None))
+            continue
+        if robot not in skip_dc:
+            jobs.append((robot, "dc"))
+        jobs.append((robot, "ideal"))
+    return jobs
+
+
+def _combos(job: Job) -> list[dict[str, str]]:
+    """The ``gym.make`` keywords of a job's combinations (without the task)."""
+    robot, family = job
+    modes = get_spec(robot).action_modes
+    if family == "dc":
+        return [{"action_mode": "voltage"}, *({"action_mode": m, "motor": "dc"} for m in modes)]
+    return [{"action_mode": m} for m in modes]
 
 
 def warm_one(job: Job) -> tuple[Job, float]:
-    """Build, reset and step ``job``'s single and vector envs (every task; a batch above the
-    threaded kernels' threshold too) and its baseline; returns the job and the seconds."""
+    """Step the robot's model (ideal motors), and build, reset and step the single and vector
+    envs of ``job``'s combinations (every task; a batch above the threaded kernels' threshold
+    too) and their baselines; returns the job and the seconds."""
     t0 = time.perf_counter()
-    robot, mode, motor = job
-    kw = {"action_mode": mode} if motor is None else {"action_mode": mode, "motor": motor}
-    for task in ("goal", "track", "navigate"):
-        env = gym.make(env_id(robot), task=task, **kw)
-        obs, _ = env.reset(seed=0)
-        env.step(env.action_space.sample())
-        try:
-            make_baseline(env).predict(obs)
-        except ValueError:  # no baseline for this combination
-            pass
-        env.close()
-        for n in (2, PAR_MIN_ROWS + 1):
-            venv = gym.make_vec(env_id(robot), num_envs=n, vectorization_mode="vector_entry_point",
-                                task=task, **kw)
-            venv.reset(seed=0)
-            venv.step(venv.action_space.sample())
-            venv.close()
+    robot, family = job
+    spec = get_spec(robot)
+    if family != "dc":  # the model's own kernels: one state, a batch, a threaded batch
+        model = spec.model_cls(None, input_mode=spec.action_modes[0]) if spec.kinematic \
+            else spec.model_cls()
+        for lead in ((), (3,), (PARALLEL_MIN_BATCH,)):
+            x = np.zeros(lead + (model.state_dim,))
+            u = np.zeros(lead + (model.input_dim,))
+            model.derivative(x, u)
+            model.step(x, u, 0.01, 2)
+    for kw in _combos(job):
+        for task in ("goal", "track", "navigate"):
+            env = gym.make(env_id(robot), task=task, **kw)
+            obs, _ = env.reset(seed=0)
+            env.step(env.action_space.sample())
+            try:
+                make_baseline(env).predict(obs)
+            except ValueError:  # no baseline for this combination
+                pass
+            env.close()
+            for n in (2, PAR_MIN_ROWS + 1):
+                venv = gym.make_vec(env_id(robot), num_envs=n,
+                                    vectorization_mode="vector_entry_point", task=task, **kw)
+                venv.reset(seed=0)
+                venv.step(venv.action_space.sample())
+                venv.close()
     return job, time.perf_counter() - t0
 
 
@@ -84,9 +100,9 @@ def warm(processes: int = 2, skip_dc: tuple[str, ...] = ()) -> None:
     t0 = time.perf_counter()
     jobs = warm_jobs(skip_dc)
     with mp.get_context("spawn").Pool(processes, maxtasksperchild=None) as pool:
-        for (robot, mode, motor), s in pool.imap_unordered(warm_one, jobs):
-            print(f"numba cache: {robot} {mode}{'' if motor is None else ' ' + motor} "
-                  f"{s:.1f} s", flush=True)
+        for (robot, family), s in pool.imap_unordered(warm_one, jobs):
+            print(f"numba cache: {robot}{'' if family is None else ' ' + family} {s:.1f} s",
+                  flush=True)
     print(f"numba cache: {len(jobs)} jobs in {time.perf_counter() - t0:.1f} s", flush=True)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from wheelgym.models._base import Model, Params
+from wheelgym.models._base import PARALLEL_MIN_BATCH, Model, Params
 
 #: public name -> defining module
 _LAZY = {
@@ -22,7 +22,8 @@ _LAZY = {
     "Ackermann": "kinematic", "AckermannParams": "kinematic",
 }
 
-__all__ = ["Model", "Params", "SkidSteer", "SkidSteerParams", "ThreeWheel", "ThreeWheelParams",
+__all__ = ["Model", "Params", "PARALLEL_MIN_BATCH", "SkidSteer", "SkidSteerParams", "ThreeWheel",
+           "ThreeWheelParams",
            "Unicycle", "UnicycleParams", "Bicycle", "BicycleParams", "DifferentialDrive",
            "DifferentialDriveParams", "Ackermann", "AckermannParams", "CasterAGV",
            "CasterAGVParams"]
