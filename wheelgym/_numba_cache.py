@@ -46,4 +46,3 @@ def guard(module_file: str, *dep_modules: str) -> None:
             fh.write(stamp)
     except OSError:  # read-only install: numba then compiles in memory
         pass
-
