@@ -42,10 +42,11 @@ def warm_jobs(skip_dc: tuple[str, ...] = ()) -> list[Job]:
     cost = {"ThreeWheel": 0, "SkidSteer": 1, "CasterAGV": 2}  # measured: 170 / 90 / 35 s
     jobs: list[Job] = []
     for robot in sorted(available_robots(), key=lambda r: cost.get(r, 3)):
-        if get_spec(robot).n_motor == 0:
+        spec = get_spec(robot)
+        if spec.kinematic:
             jobs.append((robot, None))
             continue
-        if robot not in skip_dc:
+        if spec.has_dc_motors and robot not in skip_dc:
             jobs.append((robot, "dc"))
         jobs.append((robot, "ideal"))
     return jobs
@@ -53,11 +54,11 @@ def warm_jobs(skip_dc: tuple[str, ...] = ()) -> list[Job]:
 
 def _combos(job: Job) -> list[dict[str, str]]:
     """The ``gym.make`` keywords of a job's combinations (without the task)."""
-    robot, family = job
-    modes = get_spec(robot).action_modes
-    if family == "dc":
-        return [{"action_mode": "voltage"}, *({"action_mode": m, "motor": "dc"} for m in modes)]
-    return [{"action_mode": m} for m in modes]
+    spec = get_spec(job[0])
+    if job[1] == "dc":
+        return [*({"action_mode": m} for m in spec.dc_action_modes),
+                *({"action_mode": m, "motor": "dc"} for m in spec.action_modes)]
+    return [{"action_mode": m} for m in spec.action_modes]
 
 
 def warm_one(job: Job) -> tuple[Job, float]:
