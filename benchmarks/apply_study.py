@@ -30,8 +30,7 @@ from pathlib import Path
 import yaml
 
 from wheelgym.agents.config import WHEELGYM_BLOCK, parse_config
-from wheelgym.agents.tune import _POLICY_KEYS as POLICY_KEYS
-from wheelgym.agents.tune import SEARCH_SPACES, _load_study
+from wheelgym.agents.tune import POLICY_KEYS, SEARCH_SPACES, _load_study
 
 RESULTS = Path(__file__).resolve().parent / "results"
 STUDIES_CSV = RESULTS / "studies.csv"

@@ -79,6 +79,7 @@ from wheelgym.agents.train import train
 
 __all__ = [
     "SEARCH_SPACES",
+    "POLICY_KEYS",
     "METRICS",
     "PRUNERS",
     "tune",
@@ -129,7 +130,8 @@ PRUNERS: tuple[str, ...] = ("median", "halving", "none")
 HEARTBEAT_S = 30
 GRACE_S = 120
 
-_POLICY_KEYS = ("net_arch", "activation_fn", "log_std_init")
+#: The searched keys that live in ``policy_kwargs`` (the others are algorithm arguments).
+POLICY_KEYS = ("net_arch", "activation_fn", "log_std_init")
 
 
 def _check_choice(name: str, value: Any, choices) -> None:
@@ -165,7 +167,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
     block = data[config.env_id]
     keep = {"policy", "n_envs", "n_timesteps", "normalize", "gamma", "learning_rate"}
     new = {k: v for k, v in block.items() if k in keep}
-    pk = {k: v for k, v in block.get("policy_kwargs", {}).items() if k in _POLICY_KEYS}
+    pk = {k: v for k, v in block.get("policy_kwargs", {}).items() if k in POLICY_KEYS}
     if pk:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
