@@ -15,6 +15,7 @@ command                                 what it does
 ``wheelgym benchmark [CONFIGS]``        configs x seeds -> one CSV row each (resumable;
                                         ``--ray ADDRESS``: as Ray tasks on a cluster)
 ``wheelgym benchmark --table``          the results table (Markdown) from that CSV
+``wheelgym benchmark --rescore``        score that CSV's runs again (a changed evaluation)
 ``wheelgym benchmark --curves OUT``     learning curves of the configs given, from that CSV
 ``wheelgym pretrained list|export``     the shipped agents; export the best seeds of the
                                         benchmark CSV into agents/pretrained/
@@ -223,6 +224,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="only print the Markdown table of the CSV (no training)")
     b.add_argument("--curves", type=Path, default=None, metavar="OUT.png",
                    help="only draw learning curves of the configs given from the CSV's runs")
+    b.add_argument("--rescore", action="store_true",
+                   help="train nothing: score the CSV's rows (of the configs given; default "
+                        "all) again from their run folders, after a change to the evaluation, "
+                        "and replace their score columns")
     b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
     b.add_argument("--readme", type=Path, default=None, metavar="README.md",
@@ -381,6 +386,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         format_table,
         plot_curves,
         read_rows,
+        rescore,
         run_benchmark,
         update_readme,
     )
@@ -390,6 +396,27 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         _check_writable_file(a.out, "--out")
     if a.curves is not None:
         _check_writable_file(a.curves, "--curves")
+    if a.rescore:
+        given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                                ("--episodes", a.episodes), ("--budget", a.budget),
+                                ("--ray", a.ray is not None), ("--drop-stale", a.drop_stale),
+                                ("--table", a.table), ("--curves", a.curves is not None))
+                 if v]
+        if given:
+            raise ValueError(f"--rescore scores the CSV's runs again and trains nothing; drop "
+                             f"{', '.join(given)}")
+        notes = rescore(csv_path, [p.stem for p in a.configs] or None, workers=a.workers,
+                        log=_print)
+        for note in notes:
+            _print(f"changed: {note}")
+        names = {p.stem for p in a.configs}
+        table = format_table([r for r in read_rows(csv_path) if not names or r["config"] in names])
+        _print(table)
+        if a.out is not None:
+            a.out.write_text(table + "\n")
+        if a.readme is not None:
+            update_readme(a.readme, table)
+        return 0
     if a.table or a.curves is not None:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
                                 ("--episodes", a.episodes), ("--budget", a.budget),

@@ -12,13 +12,18 @@ import csv
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 import pytest
 import yaml
 
 pytest.importorskip("stable_baselines3")
 
 from wheelgym.agents.config import configs_dir, parse_config  # noqa: E402
-from wheelgym.agents.evaluate import applicable_metrics, input_channels  # noqa: E402
+from wheelgym.agents.evaluate import (  # noqa: E402
+    applicable_metrics,
+    input_channels,
+    run_episode,
+)
 from wheelgym.agents.train import train  # noqa: E402
 from wheelgym.cli import main  # noqa: E402
 
@@ -87,3 +92,34 @@ def test_input_channels_are_named(robot, mode, kind, names):
 def test_configs_dir_has_every_robot():
     names = {Path(p).name.split("-")[0] for p in configs_dir().glob("*.yml")}
     assert set(DYNAMIC + KINEMATIC) <= names
+
+
+class _Alternating:
+    """A policy whose first action component is ``hi`` on even steps and 0 on odd ones."""
+
+    def __init__(self, space: gym.spaces.Box, hi: float) -> None:
+        self.n = 0
+        self.hi = hi
+        self.shape = space.shape
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        a = np.zeros(self.shape)
+        a[0] = self.hi if self.n % 2 == 0 else 0.0
+        self.n += 1
+        return a, state
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), [
+    ("wheelgym/Unicycle-v0", {"action_mode": "VehicleSpeedHeadingRate"}),
+    ("wheelgym/SkidSteer-v0", {"action_mode": "torque"}),
+])
+@pytest.mark.parametrize("hi", [1.0, -1.0, 0.999])
+def test_saturation_counts_actions_at_their_bound(env_id, kwargs, hi):
+    """SB3's predict clips to the action box, so the env never sees an action beyond it; the
+    evaluation counts an action at its bound (full torque, full speed) as saturated: every
+    other step here, and none when the action stays inside."""
+    env = gym.make(env_id, task="goal", max_episode_steps=31, **kwargs)
+    ep = run_episode(env, _Alternating(env.action_space, hi), seed=3, record=False)
+    env.close()
+    assert ep.length == 31  # no early end: 16 of the 31 steps hold the bound
+    assert ep.saturation == pytest.approx(16 / 31 if abs(hi) == 1.0 else 0.0, abs=1e-12)

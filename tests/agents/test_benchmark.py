@@ -98,6 +98,28 @@ def test_benchmark_resumes_and_skips_finished_rows(tmp_path, monkeypatch, capsys
     table = capsys.readouterr().out
     assert "tiny-track" in table and "tiny-goal" not in table
 
+    # Scored again from the run folders (a changed evaluation), training nothing: the
+    # evaluation is deterministic, so the spoilt score columns come back as they were, the
+    # other configs' rows are untouched, and the changed success is reported.
+    before = read_rows(out)
+    spoilt = [dict(r, agent_saturation="0.777", baseline_return="-1e9", agent_success="0.123")
+              if r["config"] == "tiny-track" else r for r in before]
+    with out.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(spoilt)
+    capsys.readouterr()
+    assert main(["benchmark", "--rescore", "--csv", str(out), str(track)]) == 0
+    text = capsys.readouterr().out
+    assert len(calls) == 3 and read_rows(out) == before, text
+    assert "tiny-track: 1 row(s) re-scored, 1 changed" in text
+    assert f"changed: tiny-track seed 0: agent_success 0.123 -> {before[1]['agent_success']}" \
+        in text
+    assert _run_main(["benchmark", "--rescore", "--seeds", "2", "--csv", str(out)]) == 2
+    assert "--rescore scores the CSV's runs again" in capsys.readouterr().err
+    assert _run_main(["benchmark", "--rescore", "--csv", str(out), "nope.yml"]) == 2
+    assert "configs ['nope'] have no rows" in capsys.readouterr().err
+
 
 def test_table_from_a_known_csv(tmp_path):
     path = tmp_path / "t.csv"

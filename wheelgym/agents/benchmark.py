@@ -38,6 +38,7 @@ import signal
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import as_completed as _as_completed
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -72,6 +73,7 @@ __all__ = [
     "default_configs",
     "config_digest",
     "BenchmarkSummary",
+    "rescore",
 ]
 
 EVAL_SEED = 200_000
@@ -227,6 +229,20 @@ class _Job:
         return (self.name, self.seed, self.budget, self.episodes)
 
 
+def _score_agent(run_dir: Path, config: TrainConfig, episodes: int) -> dict[str, float | None]:
+    """The scores of the run's final model on the evaluation seeds."""
+    agent = load_agent(run_dir / "model.zip", config.algo, run_dir / "vecnormalize.pkl",
+                       device=config.device)
+    env = make_single_env(config)
+    try:
+        applicable = applicable_metrics(env)
+        eps = evaluate_policy_episodes(env, agent, [EVAL_SEED + i for i in range(episodes)],
+                                       record=False)
+    finally:
+        env.close()
+    return _score(eps, applicable)
+
+
 def _run_job(job: _Job) -> dict | None:
     """Train and score one (config, seed); the CSV row, or ``None`` when interrupted."""
     cpu0 = time.process_time()
@@ -240,16 +256,7 @@ def _run_job(job: _Job) -> dict | None:
     result = train_mod.train(config, runs_root=job.runs_root, progress=False)
     if result.status != "finished":
         return None
-    agent = load_agent(result.run_dir / "model.zip", config.algo,
-                       result.run_dir / "vecnormalize.pkl", device=config.device)
-    env = make_single_env(config)
-    try:
-        applicable = applicable_metrics(env)
-        eps = evaluate_policy_episodes(env, agent, [EVAL_SEED + i for i in range(job.episodes)],
-                                       record=False)
-    finally:
-        env.close()
-    agent_s = _score(eps, applicable)
+    agent_s = _score_agent(result.run_dir, config, job.episodes)
     lv = job.levels
     reach = steps_to_baseline(result.run_dir / "eval.csv", lv["eval_success"], lv["eval_rms"])
     row: dict[str, Any] = {
@@ -257,17 +264,11 @@ def _run_job(job: _Job) -> dict | None:
         "episodes": job.episodes, "train_s": f"{result.wall_s:.1f}",
         "cpu_s": f"{time.process_time() - cpu0:.1f}",
         "steps_to_baseline": "" if reach is None else reach,
-        "baseline_eval_success": _fmt(lv["eval_success"]),
-        "baseline_eval_rms": _fmt(lv["eval_rms"]),
         "run_dir": str(result.run_dir),
         "finished_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "config_sha": job.digest,
     }
-    for col in _METRICS:
-        row[f"agent_{col}"] = _fmt(agent_s[col])
-        row[f"baseline_{col}"] = _fmt(lv["baseline"][col])
-    row["random_success"] = _fmt(lv["random"]["success"])
-    row["random_return"] = _fmt(lv["random"]["return"])
+    _score_columns(row, agent_s, lv)
     return row
 
 
@@ -647,6 +648,129 @@ def run_benchmark(
         raise RuntimeError(f"{len(summary.failed)} run(s) failed (their rows are missing; run "
                            f"again to retry): {'; '.join(summary.failed)}")
     return table
+
+
+# --------------------------------------------------------------------------------------------
+# re-scoring
+# --------------------------------------------------------------------------------------------
+
+
+def _score_columns(row: dict[str, Any], agent_s: dict[str, float | None],
+                   levels: dict[str, Any]) -> None:
+    """Put the agent's, baseline's and random scores into ``row``."""
+    for col in _METRICS:
+        row[f"agent_{col}"] = _fmt(agent_s[col])
+        row[f"baseline_{col}"] = _fmt(levels["baseline"][col])
+    row["random_success"] = _fmt(levels["random"]["success"])
+    row["random_return"] = _fmt(levels["random"]["return"])
+    row["baseline_eval_success"] = _fmt(levels["eval_success"])
+    row["baseline_eval_rms"] = _fmt(levels["eval_rms"])
+
+
+def _rescore_group(rows: list[dict[str, str]]) -> tuple[list[dict[str, str]], list[str]]:
+    """Score the finished runs of one config's rows (same episodes) again from their run
+    folders: the rows with every score column replaced, and a note per row whose success or
+    return came out different (the evaluation is deterministic: a difference is a finding)."""
+    episodes = int(float(rows[0]["episodes"]))
+    levels = _baseline_scores(Path(rows[0]["run_dir"]) / "config.yml", episodes)
+    out, changed = [], []
+    for old in rows:
+        run_dir = Path(old["run_dir"])
+        row = dict(old)
+        agent_s = _score_agent(run_dir, load_config(run_dir / "config.yml"), episodes)
+        _score_columns(row, agent_s, levels)
+        reach = steps_to_baseline(run_dir / "eval.csv", levels["eval_success"],
+                                  levels["eval_rms"])
+        row["steps_to_baseline"] = "" if reach is None else reach
+        for col in ("agent_success", "agent_return", "baseline_success"):
+            a, b = parse_number(old.get(col)), parse_number(row[col])
+            if (a is None) != (b is None) or (a is not None and abs(a - b) > 1e-9 * max(1, abs(a))):
+                changed.append(f"{old['config']} seed {old['seed']}: {col} {old.get(col)} -> "
+                               f"{row[col]}")
+        out.append(row)
+    return out, changed
+
+
+def _replace_rows(path: Path, new: dict[tuple[str, int, int, int], dict[str, Any]]) -> None:
+    """Rewrite ``path`` in place with the rows whose key is in ``new`` replaced, under the lock
+    the appenders take."""
+    with path.open("r+", newline="") as f:
+        _lock(f)
+        reader = csv.DictReader(f)
+        header = list(reader.fieldnames or COLUMNS)
+        rows = [r for r in reader if None not in r and None not in r.values()]
+        rows = [new.get(_row_key(r), r) if _is_row(r) else r for r in rows]
+        f.seek(0)
+        f.truncate()
+        w = csv.DictWriter(f, fieldnames=header, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def rescore(
+    csv_path: str | Path = DEFAULT_CSV,
+    configs: Sequence[str] | None = None,
+    *,
+    workers: int | None = None,
+    log: Callable[[str], None] | None = None,
+) -> list[str]:
+    """Score the rows of ``csv_path`` again from their run folders, without training.
+
+    For a change to the evaluation (a metric's definition): each row's agent is loaded from its
+    ``run_dir`` and evaluated on the same seeds, the baseline and random policy are scored
+    again per config, and the row's score columns are replaced (its training columns are
+    kept). ``configs``: the config names to re-score (default all). Each config's rows are
+    written as soon as they are scored (a Ctrl-C keeps those). Returns the notes of rows
+    whose success or return changed (they should not: the policies are deterministic)."""
+    csv_path = Path(csv_path)
+    rows = read_rows(csv_path)
+    names = sorted({r["config"] for r in rows})
+    if configs:
+        bad = sorted(set(configs) - set(names))
+        if bad:
+            raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: {names}")
+        names = [n for n in names if n in set(configs)]
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
+                                or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    groups: dict[tuple[str, str], list[dict[str, str]]] = {}
+    for r in rows:
+        if r["config"] in names:
+            groups.setdefault((r["config"], r.get("episodes", "")), []).append(r)
+    missing = [r["run_dir"] for g in groups.values() for r in g
+               if not (Path(r["run_dir"]) / "model.zip").is_file()]
+    if missing:
+        raise ValueError(f"{len(missing)} row(s) have no model in their run_dir: {missing[:3]}")
+    notes: list[str] = []
+    t0 = time.perf_counter()
+
+    def done(key: tuple[str, str], result: tuple[list[dict[str, str]], list[str]]) -> None:
+        new_rows, changed = result
+        _replace_rows(csv_path, {_row_key(r): r for r in new_rows})
+        notes.extend(changed)
+        if log is not None:
+            log(f"{key[0]}: {len(new_rows)} row(s) re-scored"
+                f"{f', {len(changed)} changed' if changed else ''} "
+                f"({time.perf_counter() - t0:.0f} s)")
+
+    if (workers or 1) == 1:
+        for key, g in groups.items():
+            done(key, _rescore_group(g))
+    else:
+        import multiprocessing as mp
+
+        with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                                 initializer=_worker_init) as pool:
+            futures = {pool.submit(_rescore_group, g): key for key, g in groups.items()}
+            try:
+                for fut in _as_completed(futures):
+                    done(futures[fut], fut.result())
+            except KeyboardInterrupt:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+    return notes
 
 
 # --------------------------------------------------------------------------------------------

@@ -46,9 +46,10 @@ TD3 as SAC, plus Gaussian action noise std float [0.05, 0.5]
 
 With ``max_saturation`` (``--max-saturation F``) a trial that completes is also evaluated
 deterministically on the trial's evaluation episodes, and its share of saturated steps (an
-action or a controller torque clipped, as in the benchmark's ``agent_saturation``) becomes an
-Optuna constraint ``saturation - F <= 0``: the TPE sampler learns where the feasible region is,
-and the best trial (and so the written config) is the best feasible one.
+action at its bound or a controller torque clipped, as in the benchmark's
+``agent_saturation``) becomes an Optuna constraint ``saturation - F <= 0``: the TPE sampler
+learns where the feasible region is, and the best trial (and so the written config) is the best
+feasible one.
 
 On tiny budgets PPO's ``n_steps`` is halved until a rollout fits the budget and off-policy
 ``learning_starts`` is capped at a tenth of it; a trial records the values it used.
@@ -418,9 +419,9 @@ def _has_best(study) -> bool:
 
 def final_saturation(run_dir: str | Path, config: TrainConfig, episodes: int,
                      seed: int = 100_000) -> float:
-    """Share of steps with an action or a controller torque clipped, mean over ``episodes``
-    deterministic episodes (seeds ``seed ..``) of the run's final model (the benchmark's
-    ``agent_saturation``); 0 where the env reports no saturation."""
+    """Share of steps with an action at its bound or a controller torque clipped, mean over
+    ``episodes`` deterministic episodes (seeds ``seed ..``) of the run's final model (the
+    benchmark's ``agent_saturation``); 0 where the env reports no saturation."""
     from wheelgym.agents.evaluate import evaluate_policy_episodes
     from wheelgym.agents.policies import load_agent
 
