@@ -115,9 +115,9 @@ class _Alternating:
 ])
 @pytest.mark.parametrize("hi", [1.0, -1.0, 0.999])
 def test_saturation_counts_actions_at_their_bound(env_id, kwargs, hi):
-    """SB3's predict clips to the action box, so the env never sees an action beyond it; the
-    evaluation counts an action at its bound (full torque, full speed) as saturated: every
-    other step here, and none when the action stays inside."""
+    """SB3's predict clips to the action box, so the env never sees an action beyond it; an
+    action at its bound (full torque, full speed) is saturated all the same: every other step
+    here, and none when the action stays inside."""
     env = gym.make(env_id, task="goal", max_episode_steps=31, **kwargs)
     ep = run_episode(env, _Alternating(env.action_space, hi), seed=3, record=False)
     env.close()

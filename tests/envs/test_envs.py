@@ -144,13 +144,15 @@ def test_bad_actions(robot):
                 np.full(n, np.inf)):
         with pytest.raises(ValueError, match="action"):
             env.step(bad)
-    # outside [-1, 1] is clipped: the same as the bound, flagged as saturated
-    e1, e2 = make(robot), make(robot)
-    e1.reset(seed=0)
-    e2.reset(seed=0)
+    # outside [-1, 1] is clipped: the same as the bound; both are saturated, inside is not
+    e1, e2, e3 = make(robot), make(robot), make(robot)
+    for e in (e1, e2, e3):
+        e.reset(seed=0)
     o1, r1, *_, i1 = e1.step(np.full(n, 5.0))
     o2, r2, *_, i2 = e2.step(np.ones(n))
-    assert np.array_equal(o1, o2) and i1["saturated"] and not i2["saturated"]
+    *_, i3 = e3.step(np.zeros(n))
+    assert np.array_equal(o1, o2) and i1["saturated"] and i2["saturated"]
+    assert not i3["saturated"]
 
 
 @pytest.mark.filterwarnings("ignore:.*render_mode")

@@ -14,9 +14,8 @@ energy                    J       ``info["energy"]`` (cumulative motor work) at 
 peak torque               N·m     ``max |info["motor_torque"]|`` over steps and motors
 mean internal force       N·m     mean of ``|info["internal_force"]|``: the norm of the torques'
                                   null-space part (ThreeWheel; 0 for the others)
-saturation                % time  share of steps at which the policy's action has a component at
-                                  (or beyond) its bound, or any ``info["saturated"]`` motor (an
-                                  action or a controller torque clipped by the env)
+saturation                % time  share of steps with ``info["saturated"]``: an action at (or
+                                  beyond) its bound, or a controller torque clipped
 ========================= ======= =========================================================
 
 The table gives mean ± standard deviation over episodes; a metric that an environment does
@@ -209,24 +208,6 @@ def _commanded_input(env: gym.Env, action: Any) -> np.ndarray:
     return a
 
 
-def _action_bounds(env: gym.Env) -> tuple[np.ndarray, np.ndarray] | None:
-    """The finite bounds of a Box action space, else ``None``."""
-    space = env.action_space
-    if not isinstance(space, gym.spaces.Box):
-        return None
-    low, high = np.asarray(space.low, dtype=np.float64), np.asarray(space.high, dtype=np.float64)
-    return (low, high) if np.all(np.isfinite(low)) and np.all(np.isfinite(high)) else None
-
-
-def _at_bound(action: Any, low: np.ndarray, high: np.ndarray) -> bool:
-    """Whether any component of ``action`` lies at or beyond its bound."""
-    a = np.asarray(action, dtype=np.float64)
-    if a.size != low.size:  # a wrong shape: the env's step says so
-        return False
-    a = a.reshape(low.shape)
-    return bool(np.any((a <= low) | (a >= high)))
-
-
 def run_episode(
     env: gym.Env,
     policy: Any,
@@ -263,14 +244,10 @@ def run_episode(
     has_sat = False
     state = None
     start = np.ones((1,), dtype=bool)
-    bounds = _action_bounds(env)
     while True:
         action, state = policy.predict(obs, state=state, episode_start=start,
                                        deterministic=deterministic)
         start = np.zeros((1,), dtype=bool)
-        # SB3's predict clips to the box, so the env never sees an action beyond it: an
-        # action at its bound is counted here (full torque or full speed command)
-        at_bound = bounds is not None and _at_bound(action, *bounds)
         obs, reward, terminated, truncated, info = env.step(action)
         ep.ret += float(reward)
         ep.length += 1
@@ -290,9 +267,9 @@ def run_episode(
         if "internal_force" in info and info["internal_force"] is not None:
             f_sum += _norm(info["internal_force"])
             n_force += 1
-        if "saturated" in info or bounds is not None:
+        if "saturated" in info:
             has_sat = True
-            n_sat += at_bound or bool(np.any(info.get("saturated", False)))
+            n_sat += bool(np.any(info["saturated"]))
         if "energy" in info:
             ep.energy = float(info["energy"])
         if record:

@@ -49,8 +49,9 @@ def k_delay(a, buf, head, delays, out):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def k_lag(A, U, alpha, sat):  # pragma: no cover - compiled
-    """``U += alpha (clip(A, -1, 1) - U)`` per entry; ``sat[i]`` marks a clip of row i's
-    command. Returns False (writing nothing) when an entry of ``A`` is not finite."""
+    """``U += alpha (clip(A, -1, 1) - U)`` per entry; ``sat[i]`` marks an entry of row i's
+    command at or beyond +-1. Returns False (writing nothing) when an entry of ``A`` is not
+    finite."""
     for i in range(A.shape[0]):
         for j in range(A.shape[1]):
             if not np.isfinite(A[i, j]):
@@ -59,10 +60,10 @@ def k_lag(A, U, alpha, sat):  # pragma: no cover - compiled
         s = False
         for j in range(A.shape[1]):
             v = A[i, j]
-            if v > 1.0:
+            if v >= 1.0:  # at or beyond the bound: saturated (SB3 clips to the box first)
                 v = 1.0
                 s = True
-            elif v < -1.0:
+            elif v <= -1.0:
                 v = -1.0
                 s = True
             U[i, j] += alpha * (v - U[i, j])

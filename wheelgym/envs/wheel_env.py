@@ -56,8 +56,8 @@ weighted terms and they add up to the reward.
 | proximity      | navigate        | -clip(1 - gap / 0.5 m, 0, 1); gap: footprint to  | 0      |
 |                |                 | the nearest obstacle (exact, not the rays)       |        |
 | lost           | track           | -1 when more than 1 m from the reference         | 10     |
-| saturation     | all             | -1 when an action or a controller torque was     | 0      |
-|                |                 | clipped (``info["saturated"]``)                  |        |
+| saturation     | all             | -1 when an action is at (or beyond) its bound or | 0      |
+|                |                 | a controller torque was clipped (``saturated``)  |        |
 
 ## Starting State
 
@@ -186,7 +186,9 @@ valid and stable at ``sim_dt``, else the constructor raises ``ValueError`` namin
 ``randomize`` entry. ``params`` must lie within the physical bounds of the parameter
 dataclasses (``wheelgym.models._base``: lengths 1e-3-1e2 m, masses 1e-3-1e5 kg, ...).
 
-Actions outside [-1, 1] are clipped (``info["saturated"]``); a wrong shape or a non-finite
+Actions outside [-1, 1] are clipped; an action at or beyond +-1 sets ``info["saturated"]``
+(SB3 clips to the box before ``step``, so a full-torque or full-speed command counts as well as
+one beyond); a wrong shape or a non-finite
 entry raises ``ValueError``, an array that is not of real numbers (strings, complex, bool)
 ``TypeError``; invalid keyword values raise ``ValueError``/``TypeError`` naming the argument
 and listing the valid choices or range.
@@ -210,7 +212,8 @@ and listing the valid choices or range.
 |                   |            | at a reset                                                   |
 | internal_force    | N·m        | norm of the torques' null-space part (ThreeWheel; else 0);   |
 |                   | (V)        | voltage mode: of the commanded voltages' (V)                 |
-| saturated         | bool       | an action or a controller torque was clipped                 |
+| saturated         | bool       | an action at or beyond its bound, or a controller torque     |
+|                   |            | clipped                                                      |
 | is_success        | bool       | goal reached; track: within 5 cm of the reference            |
 | numerical_failure | bool       | the integration diverged (the episode ends; Episode End)     |
 | reward_terms      | dict       | weighted reward terms                                        |

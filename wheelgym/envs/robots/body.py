@@ -50,17 +50,18 @@ F_SAT, F_OK, F_TERM, F_SUCC, F_COLL = range(5)
 
 @njit(cache=True, inline="always")
 def _scale_row(i, A, LH, B, F):  # pragma: no cover - compiled
-    """Clip row i's actions to [-1, 1] (``F_SAT`` marks a clip); write ``U`` and ``eff``."""
+    """Clip row i's actions to [-1, 1] (``F_SAT`` marks an entry at or beyond
+    +-1); write ``U`` and ``eff``."""
     m = A.shape[1]
     s = False
     e = 0.0
     b = B[i]
     for j in range(m):
         a = A[i, j]
-        if a > 1.0:
+        if a >= 1.0:  # at or beyond the bound: saturated (SB3 clips to the box first)
             a = 1.0
             s = True
-        elif a < -1.0:
+        elif a <= -1.0:
             a = -1.0
             s = True
         e += a * a
@@ -178,7 +179,8 @@ def env_step_body(f, kpower, jrate, feats, X, A, LH, P, h, n, Xo, B,
             body twist (vx, vy, wz), the robot's extra observation features, and returns the
             internal-force measure (0 where it does not apply).
         X: states ``(N, n_x)`` (read only).
-        A: normalised commands ``(N, m)``; clipped to [-1, 1] (``F[:, F_SAT]`` marks a clip).
+        A: normalised commands ``(N, m)``; clipped to [-1, 1] (``F[:, F_SAT]`` marks an entry at or
+            beyond +-1).
         LH: physical input bounds per row ``(N, 2 m)``: low then high; ``u = mid + a * half``.
         P: packed parameters per row ``(N, n_p)``.
         h, n: substep (s) and substep count.
@@ -221,7 +223,8 @@ def env_step_body_par(row, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - c
 
 @njit(cache=True)
 def k_twist_command(a, scale, cmd, clipped):  # pragma: no cover - compiled
-    """Velocity mode: ``cmd = clip(a, -1, 1) * scale`` per row, ``clipped`` marks a clip.
+    """Velocity mode: ``cmd = clip(a, -1, 1) * scale`` per row, ``clipped`` marks an entry at or
+    beyond +-1.
 
     Returns False (writing nothing) when an entry of ``a`` is not finite.
     """
@@ -233,10 +236,10 @@ def k_twist_command(a, scale, cmd, clipped):  # pragma: no cover - compiled
         c = False
         for j in range(a.shape[1]):
             v = a[i, j]
-            if v > 1.0:
+            if v >= 1.0:  # at or beyond the bound: saturated (SB3 clips to the box first)
                 v = 1.0
                 c = True
-            elif v < -1.0:
+            elif v <= -1.0:
                 v = -1.0
                 c = True
             cmd[i, j] = v * scale[j]
