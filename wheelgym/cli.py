@@ -411,13 +411,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
             _print(f"changed: {note}")
         names = {p.stem for p in a.configs}
         table = format_table([r for r in read_rows(csv_path) if not names or r["config"] in names])
-        _print(table)
-        if a.out is not None:
-            a.out.write_text(table + "\n")
-        if a.readme is not None:
-            update_readme(a.readme, table)
-        return 0
-    if a.table or a.curves is not None:
+    elif a.table or a.curves is not None:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
                                 ("--workers", a.workers is not None),

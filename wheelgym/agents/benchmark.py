@@ -322,24 +322,33 @@ def config_digest(config: TrainConfig) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
-    """Rewrite ``path`` in place without the rows whose key is in ``stale``, under the lock the
-    appenders take (so that a row appended meanwhile by another process is kept); the number
-    dropped."""
+def _rewrite_rows(path: Path, transform: Callable[[list[dict[str, str]]], list[dict[str, Any]]]
+                  ) -> tuple[int, int]:
+    """Rewrite ``path`` in place with ``transform`` of its whole rows, under the lock the
+    appenders take (so that a row appended meanwhile by another process is kept); the numbers
+    of rows before and after."""
     with path.open("r+", newline="") as f:
         _lock(f)
         reader = csv.DictReader(f)
         header = list(reader.fieldnames or COLUMNS)
         rows = [r for r in reader if None not in r and None not in r.values()]
-        keep = [r for r in rows if not (_is_row(r) and _row_key(r) in stale)]
+        new = transform(rows)
         f.seek(0)
         f.truncate()
-        w = csv.DictWriter(f, fieldnames=header)
+        w = csv.DictWriter(f, fieldnames=header, extrasaction="ignore")
         w.writeheader()
-        w.writerows(keep)
+        w.writerows(new)
         f.flush()
         os.fsync(f.fileno())
-    return len(rows) - len(keep)
+    return len(rows), len(new)
+
+
+def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
+    """Rewrite ``path`` without the rows whose key is in ``stale`` (:func:`_rewrite_rows`);
+    the number dropped."""
+    before, after = _rewrite_rows(
+        path, lambda rows: [r for r in rows if not (_is_row(r) and _row_key(r) in stale)])
+    return before - after
 
 
 def _is_row(r: dict[str, str]) -> bool:
@@ -692,21 +701,9 @@ def _rescore_group(rows: list[dict[str, str]]) -> tuple[list[dict[str, str]], li
 
 
 def _replace_rows(path: Path, new: dict[tuple[str, int, int, int], dict[str, Any]]) -> None:
-    """Rewrite ``path`` in place with the rows whose key is in ``new`` replaced, under the lock
-    the appenders take."""
-    with path.open("r+", newline="") as f:
-        _lock(f)
-        reader = csv.DictReader(f)
-        header = list(reader.fieldnames or COLUMNS)
-        rows = [r for r in reader if None not in r and None not in r.values()]
-        rows = [new.get(_row_key(r), r) if _is_row(r) else r for r in rows]
-        f.seek(0)
-        f.truncate()
-        w = csv.DictWriter(f, fieldnames=header, extrasaction="ignore")
-        w.writeheader()
-        w.writerows(rows)
-        f.flush()
-        os.fsync(f.fileno())
+    """Rewrite ``path`` with the rows whose key is in ``new`` replaced (:func:`_rewrite_rows`)."""
+    _rewrite_rows(path, lambda rows: [new.get(_row_key(r), r) if _is_row(r) else r
+                                      for r in rows])
 
 
 def rescore(
