@@ -94,7 +94,9 @@ def test_export_copies_the_best_seed_with_its_card(bench):
     assert card["seed"] == int(best["seed"]) and card["n_timesteps"] == 512
     assert card["csv"] == str(bench.csv) and card["finished_utc"] == best["finished_utc"]
     for col in ("agent_success", "baseline_success", "agent_return", "baseline_return",
-                "agent_energy", "baseline_energy", "train_s"):
+                "agent_energy", "baseline_energy", "agent_internal_force",
+                "baseline_internal_force", "agent_saturation", "baseline_saturation",
+                "train_s"):
         assert card["scores"][col] == pytest.approx(float(best[col]))
     assert card["scores"]["agent_rms"] is None  # goal task: no RMS tracking error
     assert card["files"]["model.zip"] == (folder / "model.zip").stat().st_size

@@ -11,7 +11,8 @@ vecnormalize.pkl     its ``VecNormalize`` statistics (configs with ``normalize``
 config.yml           the run's config as used (``load_config``): env id, env kwargs, algorithm
 card.json            config name, algorithm, env id and kwargs, seed, training steps, the
                      benchmark row's scores (agent, baseline and random success, RMS error,
-                     return, energy; train time), the CSV it came from and the dates
+                     return, energy, internal force, saturation; train time), the CSV it came
+                     from and the dates
 ==================== ==========================================================================
 
 The best seed of a config: highest ``agent_success``, then lowest ``agent_rms`` (where the
@@ -71,6 +72,8 @@ CARD_SCORES: tuple[str, ...] = (
     "agent_rms", "baseline_rms",
     "agent_return", "baseline_return", "random_return",
     "agent_energy", "baseline_energy",
+    "agent_internal_force", "baseline_internal_force",
+    "agent_saturation", "baseline_saturation",
     "train_s", "steps_to_baseline",
 )
 
