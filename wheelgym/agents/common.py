@@ -171,6 +171,12 @@ def build_model(config: TrainConfig, venv, tensorboard_log: str | None = None, v
     n_actions = int(np.prod(venv.action_space.shape)) if venv.action_space.shape else None
     kwargs = algo_kwargs(config, n_actions)
     policy = kwargs.pop("policy")
+    if config.mean_bound is not None:  # MlpPolicy with the squashed mean (checked by the loader)
+        from wheelgym.agents.bounded_policy import BoundedMeanPolicy
+
+        policy = BoundedMeanPolicy
+        kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}),
+                                   "mean_bound": config.mean_bound}
     try:
         return cls(
             policy,

@@ -518,6 +518,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "device": _choice(*DEVICES),
     "torch_threads": _int(1),
     "reward_schedule": _reward_schedule,
+    "mean_bound": _float(lo=1.0),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -530,6 +531,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "device": "cpu",
     "torch_threads": 1,
     "reward_schedule": None,
+    "mean_bound": None,
 }
 
 
@@ -558,6 +560,9 @@ class TrainConfig:
     torch_threads  ``torch.set_num_threads`` value (1 is fastest for small MLPs)
     reward_schedule ``None`` or ``{term: [[step, weight], ...]}``: reward weights changed during
                    training (a curriculum; piecewise constant in training steps)
+    mean_bound     ``None`` or ``b >= 1``: PPO/A2C's Gaussian mean squashed to ``b tanh(x / b)``
+                   (:class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`), so it cannot
+                   drift far past the action box where clipped samples give no gradient
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -578,6 +583,7 @@ class TrainConfig:
     device: str = "cpu"
     torch_threads: int = 1
     reward_schedule: dict | None = None
+    mean_bound: float | None = None
     source: str = "<dict>"
 
     @property
@@ -635,6 +641,8 @@ class TrainConfig:
         }
         if self.reward_schedule is not None:  # absent by default (old files stay the same)
             wg["reward_schedule"] = copy.deepcopy(self.reward_schedule)
+        if self.mean_bound is not None:  # absent by default, like reward_schedule
+            wg["mean_bound"] = self.mean_bound
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -723,6 +731,13 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {env_id}: noise_type and noise_std go together")
     if "noise_type" in block and algo in _ON_POLICY:
         raise ValueError(f"{source}: {env_id}: noise_type is for sac/td3, not {algo}")
+    if wg["mean_bound"] is not None and algo not in _ON_POLICY:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound is for {list(_ON_POLICY)} "
+                         f"(a Gaussian policy with a free mean), not {algo!r}")
+    if wg["mean_bound"] is not None and (block.get("policy", "MlpPolicy") != "MlpPolicy"
+                                         or block.get("use_sde")):
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound needs policy MlpPolicy "
+                         f"without use_sde")
 
     normalize = block.pop("normalize", False)
     noise = None
@@ -749,6 +764,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         device=wg["device"],
         torch_threads=wg["torch_threads"],
         reward_schedule=wg["reward_schedule"],
+        mean_bound=wg["mean_bound"],
         source=source,
     )
 
