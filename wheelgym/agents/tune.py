@@ -173,6 +173,8 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
+    if algo not in ("ppo", "a2c"):  # the bounded Gaussian mean is an on-policy policy's
+        data[WHEELGYM_BLOCK].pop("mean_bound", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 
