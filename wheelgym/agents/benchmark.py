@@ -50,6 +50,7 @@ import wheelgym.agents.train as train_mod
 from wheelgym.agents.cluster import WORKER_ENV, run_on_ray
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
+    ON_POLICY,
     WHEELGYM_BLOCK,
     TrainConfig,
     configs_dir,
@@ -205,7 +206,7 @@ def _scaled_eval_freq(config: TrainConfig, budget: int) -> int:
         return config.eval_freq
     freq = (config.eval_freq * budget // config.n_timesteps) if config.eval_freq else budget // 10
     rollout = config.n_envs * int(config.hyperparams.get("n_steps", 1))
-    if config.algo not in ("ppo", "a2c"):
+    if config.algo not in ON_POLICY:
         rollout = config.n_envs
     return max(freq, rollout, 1)
 

@@ -57,6 +57,7 @@ from wheelgym import safe_yaml
 
 __all__ = [
     "ALGOS",
+    "ON_POLICY",
     "ACTIVATIONS",
     "TrainConfig",
     "load_config",
@@ -83,7 +84,8 @@ WHEELGYM_BLOCK = "wheelgym"
 VEC_ENVS: tuple[str, ...] = ("dummy", "subproc", "native")
 DEVICES: tuple[str, ...] = ("cpu", "cuda", "auto")
 
-_ON_POLICY = ("ppo", "a2c")
+#: The on-policy algorithms (rollouts of ``n_steps``; a Gaussian policy with a free mean).
+ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
 
 #: Largest accepted seed (NumPy's legacy seeding and SB3's ``set_random_seed`` need < 2**32).
 MAX_SEED = 2**32 - 1
@@ -729,10 +731,10 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {env_id}: missing key 'n_timesteps'")
     if ("noise_type" in block) != ("noise_std" in block):
         raise ValueError(f"{source}: {env_id}: noise_type and noise_std go together")
-    if "noise_type" in block and algo in _ON_POLICY:
+    if "noise_type" in block and algo in ON_POLICY:
         raise ValueError(f"{source}: {env_id}: noise_type is for sac/td3, not {algo}")
-    if wg["mean_bound"] is not None and algo not in _ON_POLICY:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound is for {list(_ON_POLICY)} "
+    if wg["mean_bound"] is not None and algo not in ON_POLICY:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound is for {list(ON_POLICY)} "
                          f"(a Gaussian policy with a free mean), not {algo!r}")
     if wg["mean_bound"] is not None and (block.get("policy", "MlpPolicy") != "MlpPolicy"
                                          or block.get("use_sde")):

@@ -74,7 +74,13 @@ from typing import Any
 import yaml
 
 from wheelgym.agents.common import make_single_env
-from wheelgym.agents.config import WHEELGYM_BLOCK, TrainConfig, load_config, parse_config
+from wheelgym.agents.config import (
+    ON_POLICY,
+    WHEELGYM_BLOCK,
+    TrainConfig,
+    load_config,
+    parse_config,
+)
 from wheelgym.agents.evaluate import applicable_metrics
 from wheelgym.agents.train import train
 
@@ -173,7 +179,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
-    if algo not in ("ppo", "a2c"):  # the bounded Gaussian mean is an on-policy policy's
+    if algo not in ON_POLICY:  # the bounded Gaussian mean is an on-policy policy's
         data[WHEELGYM_BLOCK].pop("mean_bound", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
@@ -200,7 +206,7 @@ def apply_params(base: dict, algo: str, params: dict[str, Any], timesteps: int) 
             block[name] = value
     if pk:
         block["policy_kwargs"] = pk
-    if algo in ("ppo", "a2c") and "n_steps" in block:
+    if algo in ON_POLICY and "n_steps" in block:
         while block["n_steps"] * n_envs > timesteps and block["n_steps"] > 16:
             block["n_steps"] //= 2
         if "batch_size" in block:
