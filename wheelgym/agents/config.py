@@ -521,6 +521,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "torch_threads": _int(1),
     "reward_schedule": _reward_schedule,
     "mean_bound": _float(lo=1.0),
+    "clone_baseline": _int(1),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -534,6 +535,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "torch_threads": 1,
     "reward_schedule": None,
     "mean_bound": None,
+    "clone_baseline": None,
 }
 
 
@@ -565,6 +567,10 @@ class TrainConfig:
     mean_bound     ``None`` or ``b >= 1``: PPO/A2C's Gaussian mean squashed to ``b tanh(x / b)``
                    (:class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`), so it cannot
                    drift far past the action box where clipped samples give no gradient
+    clone_baseline ``None`` or ``N >= 1``: before PPO/A2C trains, the analytic baseline drives
+                   the training envs for ``N`` steps and the policy's Gaussian mean is fitted
+                   to its actions (:mod:`wheelgym.agents.clone`; not counted in
+                   ``n_timesteps``)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -586,6 +592,7 @@ class TrainConfig:
     torch_threads: int = 1
     reward_schedule: dict | None = None
     mean_bound: float | None = None
+    clone_baseline: int | None = None
     source: str = "<dict>"
 
     @property
@@ -645,6 +652,8 @@ class TrainConfig:
             wg["reward_schedule"] = copy.deepcopy(self.reward_schedule)
         if self.mean_bound is not None:  # absent by default, like reward_schedule
             wg["mean_bound"] = self.mean_bound
+        if self.clone_baseline is not None:  # absent by default, like reward_schedule
+            wg["clone_baseline"] = self.clone_baseline
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -741,6 +750,11 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound needs policy MlpPolicy "
                          f"without use_sde")
 
+    if wg["clone_baseline"] is not None and algo not in ON_POLICY:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
+                         f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
+                         f"not {algo!r}")
+
     normalize = block.pop("normalize", False)
     noise = None
     if "noise_type" in block:
@@ -767,6 +781,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         torch_threads=wg["torch_threads"],
         reward_schedule=wg["reward_schedule"],
         mean_bound=wg["mean_bound"],
+        clone_baseline=wg["clone_baseline"],
         source=source,
     )
 

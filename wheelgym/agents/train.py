@@ -573,6 +573,17 @@ def train(
             "versions": _versions(),
             "wall_s": 0.0,
         }
+        if config.clone_baseline is not None:  # the policy starts as the baseline's clone
+            from wheelgym.agents.clone import clone_baseline
+
+            t0 = time.perf_counter()
+            try:
+                fit = clone_baseline(model, config.clone_baseline, seed=config.seed)
+            except BaseException:  # (the lock is released below)
+                model.get_env().close()
+                raise
+            info["clone"] = {**fit, "wall_s": round(time.perf_counter() - t0, 2)}
+            info["wall_s"] = info["clone"]["wall_s"]
         return _learn(config, model, out, config.n_timesteps, progress, info, True, on_eval)
     finally:
         lock.release()

@@ -179,8 +179,9 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
-    if algo not in ON_POLICY:  # the bounded Gaussian mean is an on-policy policy's
+    if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
         data[WHEELGYM_BLOCK].pop("mean_bound", None)
+        data[WHEELGYM_BLOCK].pop("clone_baseline", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 

@@ -1,0 +1,118 @@
+"""Clone the analytic baseline into a config's policy network, then let PPO fine-tune it.
+
+Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--finetune 1000000]
+[--episodes 50] [--out runs/clone]``.
+
+A diagnostic of the ``navigate`` results (README, results section): the clone alone and the
+clone after PPO, scored with the discounted return PPO maximises (training with the config key
+``clone_baseline`` is ``wheelgym train``'s job). It answers two questions about a config whose
+PPO agent stays below the baseline:
+
+* **Is the observation enough?** :func:`wheelgym.agents.clone.clone_baseline` (the config key
+  ``clone_baseline``): the baseline drives the config's training envs for ``--steps`` steps and
+  the policy's Gaussian mean is fitted to its actions. The clone sees only the agent's
+  observation.
+* **Does the reward prefer what the success rate measures?** PPO then trains the clone for
+  ``--finetune`` steps with the config's hyperparameters (no reward schedule).
+
+Prints, for the baseline, the clone and the fine-tuned clone on the benchmark's evaluation
+seeds (``wheelgym.agents.benchmark.EVAL_SEED`` on): success, collisions, the mean return and the
+mean return discounted at the config's ``gamma`` (the objective PPO maximises). The two models
+are saved under ``--out`` (``clone/`` and ``finetuned/``, each ``model.zip`` and
+``vecnormalize.pkl``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import torch as th  # noqa: E402
+
+from wheelgym.agents.benchmark import EVAL_SEED  # noqa: E402
+from wheelgym.agents.clone import clone_baseline  # noqa: E402
+from wheelgym.agents.common import (  # noqa: E402
+    build_model,
+    make_single_env,
+    make_train_env,
+    wrap_normalize,
+)
+from wheelgym.agents.config import load_config  # noqa: E402
+from wheelgym.agents.policies import load_agent, make_baseline  # noqa: E402
+
+
+def score(config, policy, episodes: int, gamma: float) -> dict[str, float]:
+    """Success, collisions, return and discounted return over the evaluation seeds."""
+    env = make_single_env(config)
+    if policy == "baseline":
+        policy = make_baseline(env)
+    wins = hits = 0
+    rets, discs = [], []
+    for k in range(episodes):
+        obs, _ = env.reset(seed=EVAL_SEED + k)
+        done, ret, disc, g = False, 0.0, 0.0, 1.0
+        while not done:
+            a, _ = policy.predict(obs, deterministic=True)
+            obs, r, term, trunc, info = env.step(a)
+            ret += r
+            disc += g * r
+            g *= gamma
+            done = term or trunc
+        wins += bool(info.get("is_success"))
+        hits += bool(term and not info.get("is_success") and not info.get("numerical_failure"))
+        rets.append(ret)
+        discs.append(disc)
+    env.close()
+    return {"success": wins / episodes, "collisions": hits, "return": float(np.mean(rets)),
+            "discounted": float(np.mean(discs))}
+
+
+def save(model, venv, out: Path):
+    out.mkdir(parents=True, exist_ok=True)
+    model.save(out / "model.zip")
+    venv.save(str(out / "vecnormalize.pkl"))
+    return load_agent(out / "model.zip", "ppo", out / "vecnormalize.pkl")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("config", type=Path)
+    ap.add_argument("--steps", type=int, default=1_000_000, help="baseline steps to clone")
+    ap.add_argument("--finetune", type=int, default=1_000_000, help="PPO steps after cloning")
+    ap.add_argument("--episodes", type=int, default=50)
+    ap.add_argument("--out", type=Path, default=Path("runs/clone"))
+    a = ap.parse_args()
+    th.set_num_threads(1)
+    config = load_config(a.config)
+    if config.algo != "ppo" or config.normalize is None:
+        raise SystemExit(f"{a.config}: needs a PPO config with normalize on")
+    gamma = float(config.hyperparams.get("gamma", 0.99))
+    venv = wrap_normalize(make_train_env(config), config)
+    model = build_model(config, venv)
+    t0 = time.perf_counter()
+    fit = clone_baseline(model, a.steps, seed=config.seed)
+    print(f"{a.config.name}: cloned {fit['steps']} baseline steps in "
+          f"{time.perf_counter() - t0:.0f} s (mean squared action error {fit['mse_before']:.2g} "
+          f"-> {fit['mse_after']:.2g})")
+    rows = [("baseline", score(config, "baseline", a.episodes, gamma)),
+            ("clone", score(config, save(model, venv, a.out / "clone"), a.episodes, gamma))]
+    if a.finetune > 0:
+        t0 = time.perf_counter()
+        model.learn(a.finetune)
+        print(f"PPO fine-tuning: {a.finetune} steps in {time.perf_counter() - t0:.0f} s")
+        rows.append((f"clone + PPO {a.finetune // 1000}k",
+                     score(config, save(model, venv, a.out / "finetuned"), a.episodes, gamma)))
+    print(f"| policy | success | collisions | return | return discounted at {gamma} |")
+    print("|---|---|---|---|---|")
+    for name, s in rows:
+        print(f"| {name} | {s['success']:.0%} | {s['collisions']} | {s['return']:.2f} | "
+              f"{s['discounted']:.2f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,81 @@
+"""``clone_baseline`` (config key): the policy's Gaussian mean fitted to the analytic baseline."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import torch as th  # noqa: E402
+
+from tests.agents.test_agents_train import tiny_config  # noqa: E402
+from wheelgym.agents.benchmark import config_digest  # noqa: E402
+from wheelgym.agents.clone import clone_baseline, demonstrate, mean_error  # noqa: E402
+from wheelgym.agents.common import build_model, make_train_env, wrap_normalize  # noqa: E402
+from wheelgym.agents.config import parse_config  # noqa: E402
+from wheelgym.agents.train import train  # noqa: E402
+
+NAV = {"task": "navigate", "action_mode": "VehicleSpeedHeadingRate"}
+
+
+def _nav_config(**wg):
+    data = tiny_config(**wg)
+    block = data.pop("wheelgym/ThreeWheel-v0")
+    block["policy_kwargs"] = {"net_arch": [64, 64]}
+    data["wheelgym/DiffDrive-v0"] = block
+    data["wheelgym"]["env_kwargs"] = dict(NAV)
+    data["wheelgym"]["vec_env"] = "native"
+    return data
+
+
+def test_clone_baseline_is_checked_and_written_only_when_set():
+    plain = parse_config(tiny_config())
+    assert plain.clone_baseline is None
+    assert "clone_baseline" not in plain.to_dict()["wheelgym"]
+    cfg = parse_config(tiny_config(clone_baseline=4096))
+    assert cfg.clone_baseline == 4096 and cfg.to_dict()["wheelgym"]["clone_baseline"] == 4096
+    assert parse_config(cfg.to_dict()) == cfg
+    assert config_digest(cfg) != config_digest(plain)
+    for bad in (0, -5, 1.5, "100", True):
+        with pytest.raises(ValueError, match="clone_baseline"):
+            parse_config(tiny_config(clone_baseline=bad))
+    sac = tiny_config(clone_baseline=100, algo="sac")
+    for k in ("n_steps", "n_epochs"):
+        del sac["wheelgym/ThreeWheel-v0"][k]
+    with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
+        parse_config(sac)
+
+
+def test_the_fitted_mean_reproduces_the_baseline_on_states_it_did_not_see():
+    cfg = parse_config(_nav_config()).replace(n_envs=16)
+    th.manual_seed(0)
+    venv = wrap_normalize(make_train_env(cfg), cfg)
+    model = build_model(cfg, venv)
+    log_std = model.policy.log_std.detach().clone()
+    fit = clone_baseline(model, 16_384, seed=0)
+    assert fit["steps"] == 16_384
+    assert fit["mse_after"] < 0.1 * fit["mse_before"], fit
+    # held out: the baseline drives on from where the demonstration stopped (new episodes)
+    venv.training = False  # the statistics as fitted
+    obs, actions = demonstrate(venv, 4096)
+    assert np.all(np.abs(actions) <= 1.0)
+    held_out = mean_error(model, obs, actions)
+    assert held_out < 0.25 * fit["mse_before"], (held_out, fit)
+    assert th.equal(model.policy.log_std.detach(), log_std)  # only the mean is fitted
+    venv.close()
+
+
+def test_a_cloned_run_records_the_fit_and_trains_on(tmp_path):
+    cfg = parse_config(_nav_config(clone_baseline=2048))
+    res = train(cfg, runs_root=tmp_path, progress=False)
+    assert res.status == "finished" and res.timesteps == 1024  # demonstration not counted
+    info = json.loads((res.run_dir / "run.json").read_text())
+    assert info["clone"]["steps"] == 2048
+    assert info["clone"]["mse_after"] < info["clone"]["mse_before"]
+    assert info["wall_s"] >= info["clone"]["wall_s"]
+    written = yaml.safe_load((res.run_dir / "config.yml").read_text())
+    assert written["wheelgym"]["clone_baseline"] == 2048
