@@ -14,7 +14,12 @@ import torch as th  # noqa: E402
 
 from tests.agents.test_agents_train import tiny_config  # noqa: E402
 from wheelgym.agents.benchmark import config_digest  # noqa: E402
-from wheelgym.agents.clone import clone_baseline, demonstrate, mean_error  # noqa: E402
+from wheelgym.agents.clone import (  # noqa: E402
+    clone_baseline,
+    demonstrate,
+    mean_error,
+    returns_to_go,  # noqa: E402
+)
 from wheelgym.agents.common import build_model, make_train_env, wrap_normalize  # noqa: E402
 from wheelgym.agents.config import parse_config  # noqa: E402
 from wheelgym.agents.train import train  # noqa: E402
@@ -59,10 +64,12 @@ def test_the_fitted_mean_reproduces_the_baseline_on_states_it_did_not_see():
     fit = clone_baseline(model, 16_384, seed=0)
     assert fit["steps"] == 16_384
     assert fit["mse_after"] < 0.1 * fit["mse_before"], fit
+    assert fit["value_mse_after"] < 0.5 * fit["value_mse_before"], fit
     # held out: the baseline drives on from where the demonstration stopped (new episodes)
     venv.training = False  # the statistics as fitted
-    obs, actions = demonstrate(venv, 4096)
-    assert np.all(np.abs(actions) <= 1.0)
+    obs, actions, returns = demonstrate(venv, 4096, gamma=0.5)
+    assert np.all(np.abs(actions) <= 1.0) and obs.shape[0] == actions.shape[0] == 4096
+    assert returns.shape == (4096,) and np.all(np.isfinite(returns))
     held_out = mean_error(model, obs, actions)
     assert held_out < 0.25 * fit["mse_before"], (held_out, fit)
     assert th.equal(model.policy.log_std.detach(), log_std)  # only the mean is fitted
@@ -79,3 +86,12 @@ def test_a_cloned_run_records_the_fit_and_trains_on(tmp_path):
     assert info["wall_s"] >= info["clone"]["wall_s"]
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
     assert written["wheelgym"]["clone_baseline"] == 2048
+
+
+def test_returns_to_go_discount_to_each_rows_episode_end():
+    r = np.array([[1.0, 2.0], [1.0, 2.0], [1.0, 2.0]])
+    done = np.array([[False, True], [True, False], [False, False]])
+    g = returns_to_go(r, done, 0.5)
+    # row 0 ends at t = 1, then a new episode (cut at t = 2); row 1 ends at t = 0
+    np.testing.assert_allclose(g[:, 0], [1.5, 1.0, 1.0])
+    np.testing.assert_allclose(g[:, 1], [2.0, 3.0, 2.0])
