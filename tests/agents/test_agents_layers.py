@@ -117,6 +117,7 @@ def test_config_is_the_bottom_layer():
     graph = import_graph()
     assert graph[f"{PACKAGE}.config"] == set()
     assert graph[f"{PACKAGE}.bounded_policy"] == set()  # an SB3 policy class: torch and SB3 only
+    assert graph[f"{PACKAGE}.clone"] == set()  # the envs' baseline and an SB3 model only
     assert graph[f"{PACKAGE}.common"] == {f"{PACKAGE}.config", f"{PACKAGE}.bounded_policy"}
 
 
