@@ -45,6 +45,14 @@ def tiny_config(**wheelgym_block) -> dict:
     }
 
 
+def tiny_sac_config(**wheelgym_block) -> dict:
+    """:func:`tiny_config` switched to SAC (PPO's rollout keys removed)."""
+    data = tiny_config(algo="sac", **wheelgym_block)
+    for k in ("n_steps", "n_epochs"):
+        del data[ENV_ID][k]
+    return data
+
+
 def _finite_csv_numbers(path: Path) -> list[float]:
     with path.open() as f:
         rows = list(csv.reader(f))

@@ -12,7 +12,7 @@ pytest.importorskip("stable_baselines3")
 
 import torch as th  # noqa: E402
 
-from tests.agents.test_agents_train import tiny_config  # noqa: E402
+from tests.agents.test_agents_train import tiny_config, tiny_sac_config  # noqa: E402
 from wheelgym.agents.benchmark import config_digest  # noqa: E402
 from wheelgym.agents.bounded_policy import BoundedMeanPolicy  # noqa: E402
 from wheelgym.agents.common import build_model, make_train_env  # noqa: E402
@@ -31,9 +31,7 @@ def test_mean_bound_is_checked_and_written_only_when_set():
     for bad in (0.9, -1.0, float("inf"), "1.1", True):
         with pytest.raises(ValueError, match="mean_bound"):
             parse_config(tiny_config(mean_bound=bad))
-    sac = tiny_config(mean_bound=1.1, algo="sac")
-    for k in ("n_steps", "n_epochs"):
-        del sac["wheelgym/ThreeWheel-v0"][k]
+    sac = tiny_sac_config(mean_bound=1.1)
     with pytest.raises(ValueError, match=r"mean_bound is for \['ppo', 'a2c'\].*'sac'"):
         parse_config(sac)
     sde = tiny_config(mean_bound=1.1)

@@ -12,7 +12,7 @@ pytest.importorskip("stable_baselines3")
 
 import torch as th  # noqa: E402
 
-from tests.agents.test_agents_train import tiny_config  # noqa: E402
+from tests.agents.test_agents_train import tiny_config, tiny_sac_config  # noqa: E402
 from wheelgym.agents.benchmark import config_digest  # noqa: E402
 from wheelgym.agents.clone import (  # noqa: E402
     clone_baseline,
@@ -48,9 +48,7 @@ def test_clone_baseline_is_checked_and_written_only_when_set():
     for bad in (0, -5, 1.5, "100", True):
         with pytest.raises(ValueError, match="clone_baseline"):
             parse_config(tiny_config(clone_baseline=bad))
-    sac = tiny_config(clone_baseline=100, algo="sac")
-    for k in ("n_steps", "n_epochs"):
-        del sac["wheelgym/ThreeWheel-v0"][k]
+    sac = tiny_sac_config(clone_baseline=100)
     with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
         parse_config(sac)
 
