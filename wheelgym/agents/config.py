@@ -568,9 +568,9 @@ class TrainConfig:
                    (:class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`), so it cannot
                    drift far past the action box where clipped samples give no gradient
     clone_baseline ``None`` or ``N >= 1``: before PPO/A2C trains, the analytic baseline drives
-                   the training envs for ``N`` steps and the policy's Gaussian mean is fitted
-                   to its actions (:mod:`wheelgym.agents.clone`; not counted in
-                   ``n_timesteps``)
+                   the training envs for ``N`` steps; the policy's Gaussian mean is fitted to
+                   its actions and the value network to the returns that followed
+                   (:mod:`wheelgym.agents.clone`; not counted in ``n_timesteps``)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
