@@ -70,7 +70,7 @@ def test_the_fitted_mean_reproduces_the_baseline_on_states_it_did_not_see():
     assert returns.shape == (4096,) and np.all(np.isfinite(returns))
     held_out = mean_error(model, obs, actions)
     assert held_out < 0.25 * fit["mse_before"], (held_out, fit)
-    assert th.equal(model.policy.log_std.detach(), log_std)  # only the mean is fitted
+    assert th.equal(model.policy.log_std.detach(), log_std)  # the log std is not fitted
     venv.close()
 
 

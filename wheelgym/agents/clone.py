@@ -39,14 +39,6 @@ LR = 1e-3
 BATCH = 1024
 
 
-def _core_env(venv: Any) -> Any:
-    """The wheelgym env under SB3's wrappers (``VecNormalize``, ``VecMonitor``, adapter)."""
-    e = venv
-    while hasattr(e, "venv"):
-        e = e.venv
-    return e
-
-
 def demonstrate(venv: Any, steps: int, gamma: float = 0.99
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Drive ``venv`` with the analytic baseline for ``steps`` environment steps.
@@ -61,9 +53,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99
     """
     from wheelgym.envs.baseline import baseline
 
-    env = _core_env(venv)
     try:
-        policy = baseline(env)
+        policy = baseline(venv)  # it finds the env's core under SB3's wrappers
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     obs = venv.reset()

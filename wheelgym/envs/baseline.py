@@ -97,6 +97,8 @@ def _find_core(env: Any) -> WheelCore:
         nxt = getattr(e, "unwrapped", None)
         if nxt is not None and nxt is not e:
             e = nxt
+        elif hasattr(e, "venv"):  # SB3's VecEnv wrappers and the native env's SB3 adapter
+            e = e.venv
         elif hasattr(e, "env"):
             e = e.env
         else:
