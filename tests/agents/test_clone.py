@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -22,7 +27,8 @@ from wheelgym.agents.clone import (  # noqa: E402
 )
 from wheelgym.agents.common import build_model, make_train_env, wrap_normalize  # noqa: E402
 from wheelgym.agents.config import parse_config  # noqa: E402
-from wheelgym.agents.train import train  # noqa: E402
+from wheelgym.agents.policies import load_agent  # noqa: E402
+from wheelgym.agents.train import latest_model, resume, train  # noqa: E402
 
 NAV = {"task": "navigate", "action_mode": "VehicleSpeedHeadingRate"}
 
@@ -93,3 +99,46 @@ def test_returns_to_go_discount_to_each_rows_episode_end():
     # row 0 ends at t = 1, then a new episode (cut at t = 2); row 1 ends at t = 0
     np.testing.assert_allclose(g[:, 0], [1.5, 1.0, 1.0])
     np.testing.assert_allclose(g[:, 1], [2.0, 3.0, 2.0])
+
+
+def test_ctrl_c_during_the_clone_keeps_the_model_and_resume_clones_again(tmp_path):
+    data = _nav_config(clone_baseline=50_000_000, eval_freq=0, checkpoint_freq=0)
+    cfg_path = tmp_path / "c.yml"
+    cfg_path.write_text(yaml.safe_dump(data))
+    run = tmp_path / "run"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "wheelgym.cli", "train", str(cfg_path), "--run-dir", str(run),
+         "--no-progress"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:  # until the clone runs
+            info = run / "run.json"
+            if info.is_file() and json.loads(info.read_text()).get("status") == "cloning":
+                break
+            time.sleep(0.2)
+        time.sleep(1.5)
+        assert proc.poll() is None, proc.stdout.read()
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, out
+    info = json.loads((run / "run.json").read_text())
+    assert info["status"] == "interrupted" and info["timesteps"] == 0, info
+    clone = info["clone"]
+    assert clone["interrupted"] and 0 < clone["steps"] < 50_000_000, clone
+    model_path, stats = latest_model(run)
+    assert load_agent(model_path, "ppo", stats).obs_norm is not None
+    # resume clones again (a short demonstration now) and then trains
+    written = yaml.safe_load((run / "config.yml").read_text())
+    written["wheelgym"]["clone_baseline"] = 2048
+    (run / "config.yml").write_text(yaml.safe_dump(written))
+    res = resume(run, progress=False)
+    assert res.status == "finished" and res.timesteps == 1024
+    info = json.loads((run / "run.json").read_text())
+    assert info["clone"]["steps"] == 2048 and "interrupted" not in info["clone"], info
+    assert info["clone"]["mse_after"] < info["clone"]["mse_before"]

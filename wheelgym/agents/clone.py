@@ -26,6 +26,7 @@ loss                        mean squared error of the Gaussian mean (after ``mea
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -37,9 +38,12 @@ EPOCHS = 10
 #: Adam's learning rate and the batch size of the fit.
 LR = 1e-3
 BATCH = 1024
+#: Rows per forward pass when scoring a fit (bounds the memory of a 1M-row demonstration).
+CHUNK = 65_536
 
 
-def demonstrate(venv: Any, steps: int, gamma: float = 0.99
+def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
+                stop: Callable[[], bool] | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Drive ``venv`` with the analytic baseline for ``steps`` environment steps.
 
@@ -48,7 +52,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99
     ``gamma`` to each row's episode end), ``(steps', obs_dim)``, ``(steps', action_dim)`` and
     ``(steps',)`` float32 with ``steps' = max(1, steps // num_envs) * num_envs``. The returns
     of the steps whose episode had not ended when the demonstration stopped are cut short
-    there (their last ``1 / (1 - gamma)`` steps are within one horizon of the cut). Raises
+    there (their last ``1 / (1 - gamma)`` steps are within one horizon of the cut). ``stop``
+    (checked before each vector step) ends the demonstration early: fewer rows. Raises
     ``ValueError`` when the envs have no baseline.
     """
     from wheelgym.envs.baseline import baseline
@@ -60,6 +65,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99
     obs = venv.reset()
     O, A, R, D = [], [], [], []
     for _ in range(max(1, steps // venv.num_envs)):
+        if stop is not None and O and stop():
+            break
         a = np.asarray(policy.actions(), dtype=np.float32)
         O.append(np.asarray(obs, dtype=np.float32).copy())
         A.append(a)
@@ -84,12 +91,13 @@ def returns_to_go(rewards: np.ndarray, done: np.ndarray, gamma: float) -> np.nda
 
 def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
              returns: np.ndarray | None = None, *, epochs: int = EPOCHS,
-             seed: int = 0) -> float:
+             seed: int = 0, stop: Callable[[], bool] | None = None) -> float:
     """Fit ``model.policy``'s Gaussian mean to ``actions`` at ``obs`` (least squares), and its
     value network to ``returns`` where given (so that PPO's first advantages are the clone's,
     not an untrained critic's noise).
 
-    Returns the mean squared action error over the last pass.
+    Returns the mean squared action error over the last pass (over the batches it took when
+    ``stop``, checked before each batch, ends the fit early; NaN before the first batch).
     """
     import torch as th
 
@@ -104,18 +112,24 @@ def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
     policy.set_training_mode(True)
     for _ in range(epochs):
         perm = th.randperm(len(O), generator=gen)
-        total = 0.0
+        total, seen = 0.0, 0
         for i in range(0, len(O), BATCH):
+            if stop is not None and stop():
+                break
             idx = perm[i:i + BATCH]
             mean = policy.get_distribution(O[idx]).distribution.mean
             loss = ((mean - A[idx]) ** 2).mean()
             total += float(loss.detach()) * len(idx)
+            seen += len(idx)
             if G is not None:
                 loss = loss + ((policy.predict_values(O[idx]).flatten() - G[idx]) ** 2).mean()
             opt.zero_grad()
             loss.backward()
             opt.step()
-        mse = total / len(O)
+        if seen:
+            mse = total / seen
+        if stop is not None and stop():
+            break
     policy.set_training_mode(False)
     return mse
 
@@ -125,9 +139,13 @@ def mean_error(model: Any, obs: np.ndarray, actions: np.ndarray) -> float:
     import torch as th
 
     policy = model.policy
+    total = 0.0
     with th.no_grad():
-        mean = policy.get_distribution(th.as_tensor(obs, device=policy.device)).distribution.mean
-        return float(((mean - th.as_tensor(actions, device=policy.device)) ** 2).mean())
+        for i in range(0, len(obs), CHUNK):
+            o = th.as_tensor(obs[i:i + CHUNK], device=policy.device)
+            a = th.as_tensor(actions[i:i + CHUNK], device=policy.device)
+            total += float(((policy.get_distribution(o).distribution.mean - a) ** 2).sum())
+    return total / max(np.asarray(actions).size, 1)
 
 
 def value_error(model: Any, obs: np.ndarray, returns: np.ndarray) -> float:
@@ -135,19 +153,33 @@ def value_error(model: Any, obs: np.ndarray, returns: np.ndarray) -> float:
     import torch as th
 
     policy = model.policy
+    total = 0.0
     with th.no_grad():
-        v = policy.predict_values(th.as_tensor(obs, device=policy.device)).flatten()
-        return float(((v - th.as_tensor(returns, device=policy.device)) ** 2).mean())
+        for i in range(0, len(obs), CHUNK):
+            o = th.as_tensor(obs[i:i + CHUNK], device=policy.device)
+            g = th.as_tensor(returns[i:i + CHUNK], device=policy.device)
+            total += float(((policy.predict_values(o).flatten() - g) ** 2).sum())
+    return total / max(len(returns), 1)
 
 
-def clone_baseline(model: Any, steps: int, seed: int = 0) -> dict[str, float]:
+def clone_baseline(model: Any, steps: int, seed: int = 0,
+                   stop: Callable[[], bool] | None = None) -> dict[str, Any]:
     """:func:`demonstrate` on ``model``'s envs, then :func:`fit_mean` (mean and value); the
     figures of the fit (``steps``, ``mse_before``, ``mse_after``, ``value_mse_before``,
-    ``value_mse_after``) for the run's ``run.json``."""
+    ``value_mse_after``) for the run's ``run.json``.
+
+    ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
+    or the fit early; the figures then say ``interrupted: True`` and cover what was done.
+    """
     venv = model.get_env()
-    obs, actions, returns = demonstrate(venv, steps, gamma=float(model.gamma))
+    obs, actions, returns = demonstrate(venv, steps, gamma=float(model.gamma), stop=stop)
     before = mean_error(model, obs, actions)
     v_before = value_error(model, obs, returns)
-    after = fit_mean(model, obs, actions, returns, seed=seed)
-    return {"steps": int(len(obs)), "mse_before": before, "mse_after": after,
-            "value_mse_before": v_before, "value_mse_after": value_error(model, obs, returns)}
+    after = fit_mean(model, obs, actions, returns, seed=seed, stop=stop)
+    fit: dict[str, Any] = {"steps": int(len(obs)), "mse_before": before,
+                           "mse_after": None if np.isnan(after) else after,
+                           "value_mse_before": v_before,
+                           "value_mse_after": value_error(model, obs, returns)}
+    if stop is not None and stop():
+        fit["interrupted"] = True
+    return fit

@@ -21,15 +21,18 @@ reward_weights.csv     with a ``reward_schedule``: each change of the reward wei
 run.lock               present while a process trains in the folder (holds its pid)
 ====================== ======================================================================
 
-``status`` in run.json: ``running`` while training; ``finished`` when the target number of steps
+``status`` in run.json: ``cloning`` while ``clone_baseline`` demonstrates and fits;
+``running`` while training; ``finished`` when the target number of steps
 was reached; ``interrupted`` after Ctrl-C (SIGINT); ``stopped`` when the caller's ``on_eval``
 hook ended training early (a pruned tuning trial); ``failed`` when training raised (``error``
 holds the exception's type and message; the exception propagates). A process that died without
-a word (SIGKILL, power loss) leaves ``running``.
+a word (SIGKILL, power loss) leaves ``running`` (or ``cloning``).
 
 Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
-Ctrl-C stops at once, still saving); ``subproc`` vector-env workers ignore SIGINT (they share the
-terminal's process group), so the main process stops them cleanly. ``resume`` continues a run in
+Ctrl-C stops at once, still saving); during ``clone_baseline`` it ends the demonstration or fit
+at the next step or batch and saves the partly fitted model (``resume`` clones again). ``subproc``
+vector-env workers ignore SIGINT (they share the terminal's process group), so the main process
+stops them cleanly. ``resume`` continues a run in
 its own folder from its last saved model or checkpoint.
 
 Only one process at a time trains in a run folder: ``train`` and ``resume`` take ``run.lock``
@@ -574,19 +577,57 @@ def train(
             "wall_s": 0.0,
         }
         if config.clone_baseline is not None:  # the policy starts as the baseline's clone
-            from wheelgym.agents.clone import clone_baseline
-
-            t0 = time.perf_counter()
-            try:
-                fit = clone_baseline(model, config.clone_baseline, seed=config.seed)
-            except BaseException:  # (the lock is released below)
-                model.get_env().close()
-                raise
-            info["clone"] = {**fit, "wall_s": round(time.perf_counter() - t0, 2)}
-            info["wall_s"] = info["clone"]["wall_s"]
+            interrupted = _clone(config, model, out, info)
+            if interrupted is not None:
+                return interrupted
         return _learn(config, model, out, config.n_timesteps, progress, info, True, on_eval)
     finally:
         lock.release()
+
+
+def _clone(config: TrainConfig, model, run_dir: Path, info: dict) -> TrainResult | None:
+    """``clone_baseline`` before training: the fit's figures go to ``info["clone"]``.
+
+    A first Ctrl-C ends the demonstration or the fit early; the partly fitted model and its
+    statistics are then saved, run.json says ``interrupted`` (0 steps) and the result is
+    returned; :func:`resume` clones again before it trains. ``None`` when the clone finished.
+    """
+    from wheelgym.agents.clone import clone_baseline
+
+    t0 = time.perf_counter()
+    wall_before = float(info.get("wall_s", 0.0))
+    with _StopOnSignal() as stop:
+        try:
+            info.update(status="cloning")
+            _write_json(run_dir / "run.json", info)
+            fit = clone_baseline(model, config.clone_baseline, seed=config.seed,
+                                 stop=lambda: stop.requested)
+        except KeyboardInterrupt:  # a second Ctrl-C: stop at once, still saving
+            fit = {"interrupted": True}
+        except BaseException as e:  # (the caller releases the lock)
+            model.get_env().close()
+            info.update(status="failed", error=_short(f"{type(e).__name__}: {e}"))
+            _write_json(run_dir / "run.json", info)
+            raise
+    wall = round(wall_before + time.perf_counter() - t0, 2)
+    info["clone"] = {**fit, "wall_s": round(time.perf_counter() - t0, 2)}
+    info["wall_s"] = wall
+    if not fit.get("interrupted"):
+        return None
+    notes = []
+    try:
+        _save(model, run_dir)
+    finally:
+        try:
+            model.get_env().close()
+        except Exception as e:
+            notes.append(f"closing the environments failed: {type(e).__name__}: {e}")
+        info.update(status="interrupted", timesteps=0, target_timesteps=config.n_timesteps,
+                    finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"))
+        if notes:
+            info["notes"] = notes
+        _write_json(run_dir / "run.json", info)
+    return TrainResult(run_dir, "interrupted", 0, wall)
 
 
 def check_reward_schedule(config: TrainConfig, venv) -> None:
@@ -668,4 +709,9 @@ def resume(
         info_path = run_dir / "run.json"
         info = json.loads(info_path.read_text()) if info_path.is_file() else {}
         info.setdefault("resumed_from", []).append(str(model_path.name))
+        if config.clone_baseline is not None and info.get("clone", {}).get("interrupted"):
+            # Ctrl-C came during the clone: fit again (from the partial fit) before training
+            interrupted = _clone(config, model, run_dir, info)
+            if interrupted is not None:
+                return interrupted
         return _learn(config, model, run_dir, config.n_timesteps, progress, info, False)
