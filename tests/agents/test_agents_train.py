@@ -124,25 +124,21 @@ def test_run_dir_is_never_overwritten(tmp_path):
     assert (target / "model.zip").read_text() == "someone else's"
 
 
-def test_sigint_leaves_a_loadable_model(tmp_path):
-    cfg_path = tmp_path / "c.yml"
-    data = tiny_config(eval_freq=0, checkpoint_freq=0)
-    data[ENV_ID]["n_timesteps"] = 10_000_000
-    cfg_path.write_text(yaml.safe_dump(data))
-    run = tmp_path / "run"
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+def train_and_interrupt(cfg_path: Path, run: Path, status: str) -> None:
+    """``wheelgym train cfg_path --run-dir run`` in a subprocess, sent SIGINT (as Ctrl-C) once
+    its run.json says ``status`` (the SIGINT handler is then in place; a cold numba cache can
+    take a while); it must exit with 130."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "wheelgym.cli", "train", str(cfg_path), "--run-dir", str(run),
          "--no-progress"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
     try:
         deadline = time.monotonic() + 300
-        # Wait until training runs (run.json says so once the SIGINT handler is in place;
-        # a cold numba cache can take a while), then interrupt as Ctrl-C would.
         while time.monotonic() < deadline and proc.poll() is None:
             info = run / "run.json"
-            if info.is_file() and json.loads(info.read_text()).get("status") == "running":
+            if info.is_file() and json.loads(info.read_text()).get("status") == status:
                 break
             time.sleep(0.2)
         time.sleep(1.5)
@@ -153,6 +149,15 @@ def test_sigint_leaves_a_loadable_model(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, out
+
+
+def test_sigint_leaves_a_loadable_model(tmp_path):
+    cfg_path = tmp_path / "c.yml"
+    data = tiny_config(eval_freq=0, checkpoint_freq=0)
+    data[ENV_ID]["n_timesteps"] = 10_000_000
+    cfg_path.write_text(yaml.safe_dump(data))
+    run = tmp_path / "run"
+    train_and_interrupt(cfg_path, run, "running")
     info = json.loads((run / "run.json").read_text())
     assert info["status"] == "interrupted"
     model_path, stats = latest_model(run)

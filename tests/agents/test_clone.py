@@ -3,11 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
@@ -17,7 +12,11 @@ pytest.importorskip("stable_baselines3")
 
 import torch as th  # noqa: E402
 
-from tests.agents.test_agents_train import tiny_config, tiny_sac_config  # noqa: E402
+from tests.agents.test_agents_train import (  # noqa: E402
+    tiny_config,
+    tiny_sac_config,
+    train_and_interrupt,
+)
 from wheelgym.agents.benchmark import config_digest  # noqa: E402
 from wheelgym.agents.clone import (  # noqa: E402
     clone_baseline,
@@ -106,27 +105,7 @@ def test_ctrl_c_during_the_clone_keeps_the_model_and_resume_clones_again(tmp_pat
     cfg_path = tmp_path / "c.yml"
     cfg_path.write_text(yaml.safe_dump(data))
     run = tmp_path / "run"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "wheelgym.cli", "train", str(cfg_path), "--run-dir", str(run),
-         "--no-progress"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
-    try:
-        deadline = time.monotonic() + 300
-        while time.monotonic() < deadline and proc.poll() is None:  # until the clone runs
-            info = run / "run.json"
-            if info.is_file() and json.loads(info.read_text()).get("status") == "cloning":
-                break
-            time.sleep(0.2)
-        time.sleep(1.5)
-        assert proc.poll() is None, proc.stdout.read()
-        proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=300)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130, out
+    train_and_interrupt(cfg_path, run, "cloning")
     info = json.loads((run / "run.json").read_text())
     assert info["status"] == "interrupted" and info["timesteps"] == 0, info
     clone = info["clone"]
