@@ -43,6 +43,7 @@ from wheelgym.agents.common import (  # noqa: E402
     wrap_normalize,
 )
 from wheelgym.agents.config import load_config  # noqa: E402
+from wheelgym.agents.evaluate import run_episode  # noqa: E402
 from wheelgym.agents.policies import load_agent, make_baseline  # noqa: E402
 
 
@@ -51,25 +52,14 @@ def score(config, policy, episodes: int, gamma: float) -> dict[str, float]:
     env = make_single_env(config)
     if policy == "baseline":
         policy = make_baseline(env)
-    wins = hits = 0
-    rets, discs = [], []
-    for k in range(episodes):
-        obs, _ = env.reset(seed=EVAL_SEED + k)
-        done, ret, disc, g = False, 0.0, 0.0, 1.0
-        while not done:
-            a, _ = policy.predict(obs, deterministic=True)
-            obs, r, term, trunc, info = env.step(a)
-            ret += r
-            disc += g * r
-            g *= gamma
-            done = term or trunc
-        wins += bool(info.get("is_success"))
-        hits += bool(term and not info.get("is_success") and not info.get("numerical_failure"))
-        rets.append(ret)
-        discs.append(disc)
+    eps = [run_episode(env, policy, EVAL_SEED + k) for k in range(episodes)]
     env.close()
-    return {"success": wins / episodes, "collisions": hits, "return": float(np.mean(rets)),
-            "discounted": float(np.mean(discs))}
+    discounts = gamma ** np.arange(max(e.length for e in eps))
+    return {"success": float(np.mean([bool(e.success) for e in eps])),
+            "collisions": sum(e.terminated and not e.success and not e.numerical_failure
+                              for e in eps),
+            "return": float(np.mean([e.ret for e in eps])),
+            "discounted": float(np.mean([discounts[:e.length] @ e.rewards for e in eps]))}
 
 
 def save(model, venv, out: Path):

@@ -123,3 +123,23 @@ def test_saturation_counts_actions_at_their_bound(env_id, kwargs, hi):
     env.close()
     assert ep.length == 31  # no early end: 16 of the 31 steps hold the bound
     assert ep.saturation == pytest.approx(16 / 31 if abs(hi) == 1.0 else 0.0, abs=1e-12)
+
+
+def test_an_episode_keeps_its_rewards_and_how_it_ended():
+    """The recorded rewards add up to the return; a time limit is not a termination, and the
+    baseline's goal episode ends by the task (success)."""
+    from wheelgym.agents.policies import make_baseline
+
+    env = gym.make("wheelgym/Unicycle-v0", task="goal", max_episode_steps=31,
+                   action_mode="VehicleSpeedHeadingRate")
+    ep = run_episode(env, _Alternating(env.action_space, 0.5), seed=3)
+    assert ep.length == 31 and not ep.terminated and ep.rewards.shape == (31,)
+    assert ep.ret == pytest.approx(float(np.sum(ep.rewards)), rel=1e-12, abs=1e-12)
+    assert run_episode(env, _Alternating(env.action_space, 0.5), seed=3,
+                       record=False).rewards is None
+    env.close()
+    env = gym.make("wheelgym/Unicycle-v0", task="goal", action_mode="VehicleSpeedHeadingRate")
+    ep = run_episode(env, make_baseline(env), seed=3)
+    env.close()
+    assert ep.success and ep.terminated and len(ep.rewards) == ep.length
+    assert ep.ret == pytest.approx(float(np.sum(ep.rewards)), rel=1e-12, abs=1e-12)

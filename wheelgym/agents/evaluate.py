@@ -93,12 +93,14 @@ class Episode:
     mean_internal_force: float | None = None
     saturation: float | None = None
     numerical_failure: bool = False
+    terminated: bool = False  # ended by the task (success, collision, ...), not by the time limit
     dt: float = 1.0
     poses: np.ndarray | None = None  # (T + 1, 3): x, y, yaw
     torques: np.ndarray | None = None  # (T, n_motors); None for robots without motors
     inputs: np.ndarray | None = None  # (T, m) commanded inputs of robots without motors
     goal: np.ndarray | None = None  # goal pose (x, y[, yaw])
     reference: np.ndarray | None = None  # (T, 3) reference poses along the episode (track)
+    rewards: np.ndarray | None = None  # (T,) the reward of each step
     frames: list = field(default_factory=list)
 
 
@@ -227,7 +229,7 @@ def run_episode(
     obs, info = env.reset(seed=seed)
     _reset_policy(policy, seed)
     ep = Episode(seed=seed, dt=float(getattr(env.unwrapped, "dt", 1.0) or 1.0))
-    poses, torques, inputs, refs = [], [], [], []
+    poses, torques, inputs, refs, rewards = [], [], [], [], []
     motors = _has_motors(env)
     if record:
         ep.goal = _goal_of(info)
@@ -251,6 +253,8 @@ def run_episode(
         obs, reward, terminated, truncated, info = env.step(action)
         ep.ret += float(reward)
         ep.length += 1
+        if record:
+            rewards.append(float(reward))
         if "tracking_error" in info:
             e = _pos_error(info["tracking_error"])
             err2 += e * e
@@ -284,6 +288,7 @@ def run_episode(
         if info.get("numerical_failure", False):
             ep.numerical_failure = True
         if terminated or truncated:
+            ep.terminated = bool(terminated)
             break
     if "is_success" in info:
         ep.success = bool(info["is_success"])
@@ -295,6 +300,7 @@ def run_episode(
         ep.poses = np.array(poses) if poses else None
         ep.torques = np.array(torques) if torques else None
         ep.inputs = np.array(inputs) if inputs else None
+        ep.rewards = np.array(rewards)
         if refs and len({r.size for r in refs}) == 1:
             ep.reference = np.array(refs)
     return ep
