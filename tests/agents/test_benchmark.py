@@ -206,6 +206,11 @@ def test_a_retuned_configs_old_rows_are_stale(tmp_path, capsys):
     assert again.written == 1 and again.skipped == 0
     (new,) = read_rows(out)
     assert new["config_sha"] == config_digest(load_config(cfg)) != row["config_sha"]
+    # A stale row beside a current one of the same seed (CSVs merged): only the stale one goes.
+    with out.open("a", newline="") as f:
+        csv.DictWriter(f, fieldnames=list(row)).writerow(row)
+    merged = run_jobs([cfg], **kw, drop_stale=True)
+    assert merged.written == 0 and merged.skipped == 1 and read_rows(out) == [new]
     # A new budget: --drop-stale also removes the rows at the old one (not with --budget).
     data[ENV_ID]["n_timesteps"] = 768
     cfg.write_text(yaml.safe_dump(data))

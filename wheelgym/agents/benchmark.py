@@ -344,11 +344,11 @@ def _rewrite_rows(path: Path, transform: Callable[[list[dict[str, str]]], list[d
     return len(rows), len(new)
 
 
-def _drop_rows(path: Path, stale: set[tuple[str, int, int, int]]) -> int:
-    """Rewrite ``path`` without the rows whose key is in ``stale`` (:func:`_rewrite_rows`);
-    the number dropped."""
+def _drop_rows(path: Path, stale: Callable[[dict[str, str]], bool]) -> int:
+    """Rewrite ``path`` without the whole rows for which ``stale(row)`` holds
+    (:func:`_rewrite_rows`); the number dropped."""
     before, after = _rewrite_rows(
-        path, lambda rows: [r for r in rows if not (_is_row(r) and _row_key(r) in stale)])
+        path, lambda rows: [r for r in rows if not (_is_row(r) and stale(r))])
     return before - after
 
 
@@ -469,26 +469,29 @@ def run_jobs(
     present = read_rows(csv_path) if csv_path.is_file() else []
     digests = {p.stem: config_digest(c) for p, c in loaded}
     budgets = {p.stem: c.n_timesteps for p, c in loaded}
-    stale = set()
-    for r in present:
+    def is_stale(r: dict[str, str]) -> bool:
+        """A row of a config given, made with other settings (or, with ``drop_stale`` and no
+        ``budget``, at another budget than its ``n_timesteps``). Judged row by row, so a row
+        with the config's own digest is kept beside a stale one of the same seed."""
         name = r["config"]
         if name not in digests:
-            continue
+            return False
         sha = r.get("config_sha") or ""
         other_budget = (budget is None and not quick
                         and int(float(r["n_timesteps"])) != budgets[name])
-        if (sha and sha != digests[name]) or (drop_stale and other_budget):
-            stale.add(_row_key(r))
+        return bool(sha and sha != digests[name]) or (drop_stale and other_budget)
+
+    stale = [r for r in present if is_stale(r)]
     if stale and not drop_stale:
-        names = sorted({k[0] for k in stale})
+        names = sorted({r["config"] for r in stale})
         raise ValueError(f"{csv_path} holds {len(stale)} row(s) of {names} made with other "
                          f"settings than the config files now have (column config_sha); give "
                          f"--drop-stale to remove them and train again, or another --csv")
     if stale:
-        n = _drop_rows(csv_path, stale)
+        n = _drop_rows(csv_path, is_stale)
         if log is not None:
             log(f"benchmark: dropped {n} stale row(s) of "
-                f"{sorted({k[0] for k in stale})} from {csv_path}")
+                f"{sorted({r['config'] for r in stale})} from {csv_path}")
         present = read_rows(csv_path)
     done = {_row_key(r) for r in present}
 
