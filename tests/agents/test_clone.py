@@ -53,6 +53,16 @@ def test_clone_baseline_is_checked_and_written_only_when_set():
     for bad in (0, -5, 1.5, "100", True):
         with pytest.raises(ValueError, match="clone_baseline"):
             parse_config(tiny_config(clone_baseline=bad))
+    rounds = parse_config(tiny_config(clone_baseline=4096, clone_rounds=3))
+    assert rounds.clone_rounds == 3 and rounds.to_dict()["wheelgym"]["clone_rounds"] == 3
+    assert "clone_rounds" not in cfg.to_dict()["wheelgym"] and cfg.clone_rounds is None
+    assert parse_config(rounds.to_dict()) == rounds
+    assert config_digest(rounds) != config_digest(cfg)
+    with pytest.raises(ValueError, match="clone_rounds needs clone_baseline"):
+        parse_config(tiny_config(clone_rounds=2))
+    for bad in (0, 2.5, "3"):
+        with pytest.raises(ValueError, match="clone_rounds"):
+            parse_config(tiny_config(clone_baseline=4096, clone_rounds=bad))
     sac = tiny_sac_config(clone_baseline=100)
     with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
         parse_config(sac)
@@ -70,12 +80,35 @@ def test_the_fitted_mean_reproduces_the_baseline_on_states_it_did_not_see():
     assert fit["value_mse_after"] < 0.5 * fit["value_mse_before"], fit
     # held out: the baseline drives on from where the demonstration stopped (new episodes)
     venv.training = False  # the statistics as fitted
-    obs, actions, returns = demonstrate(venv, 4096, gamma=0.5)
+    obs, actions, returns, _, _ = demonstrate(venv, 4096, gamma=0.5)
     assert np.all(np.abs(actions) <= 1.0) and obs.shape[0] == actions.shape[0] == 4096
     assert returns.shape == (4096,) and np.all(np.isfinite(returns))
     held_out = mean_error(model, obs, actions)
     assert held_out < 0.25 * fit["mse_before"], (held_out, fit)
     assert th.equal(model.policy.log_std.detach(), log_std)  # the log std is not fitted
+    venv.close()
+
+
+def test_dagger_rounds_label_the_clones_own_states():
+    cfg = parse_config(_nav_config()).replace(n_envs=16)
+    th.manual_seed(0)
+    venv = wrap_normalize(make_train_env(cfg), cfg)
+    model = build_model(cfg, venv)
+    fit = clone_baseline(model, 16_384, seed=0, rounds=2)
+    assert fit["steps"] == 16_384
+    first, second = fit["rounds"]
+    assert first["driver"] == "baseline" and second["driver"] == "clone"
+    assert first["episodes"] > 0 and 0.5 <= first["success"] <= 1.0, first
+    # refitted on the states the clone reached, it errs less there than before the refit
+    venv.training = False
+    own = demonstrate(venv, 4096, actor=lambda o: model.predict(o, deterministic=True)[0])
+    assert mean_error(model, own.obs, own.actions) < 0.8 * second["mse_on_its_states"], fit
+    # the actor drives, the baseline only labels: a robot held still gives the same
+    # observation row after row, labelled with the baseline's (moving) actions
+    still = demonstrate(venv, 16 * 5, actor=lambda o: np.zeros((len(o), 2), np.float32))
+    rows = still.obs.reshape(5, 16, -1)
+    np.testing.assert_allclose(rows[1:], rows[:1].repeat(4, axis=0), atol=1e-6)
+    assert np.all(np.abs(still.actions).max(axis=1) > 0.05)  # it asks to move or turn
     venv.close()
 
 

@@ -11,13 +11,20 @@ and undo the clone: DiffDrive navigate fell from about 90% to 20-70% success wit
 steps); the log std and PPO's hyperparameters are the config's. The demonstration steps are
 not counted in ``n_timesteps``; their time is in the run's wall time.
 
+With ``clone_rounds: K`` the ``N`` steps come in ``K`` rounds (DAgger, Ross, Gordon & Bagnell
+2011): after the first, the clone as fitted so far drives and the baseline labels the states
+it reaches, and each round refits on all rows so far. A clone trained only on the baseline's
+states drifts into states the baseline never visits, where it has no label.
+
 =========================== ===============================================================
 knob                        value
 =========================== ===============================================================
 demonstration               ``N`` steps over the ``n_envs`` training envs (``N // n_envs``
-                            vector steps), deterministic baseline actions in the action box
-fit                         Adam, learning rate 1e-3, batches of 1024, :data:`EPOCHS` passes,
-                            shuffled by a generator seeded with the config's seed
+                            vector steps), deterministic baseline actions in the action box;
+                            in ``K`` rounds of ``N // K`` with ``clone_rounds``
+fit                         Adam, learning rate 1e-3, batches of 1024, :data:`EPOCHS` passes
+                            (per round, over all rows so far), shuffled by a generator seeded
+                            with the config's seed (plus the round's index)
 loss                        mean squared error of the Gaussian mean (after ``mean_bound``'s
                             squash where set) to the baseline's action, plus that of the
                             value estimate to the discounted return (``gamma`` of the model)
@@ -27,7 +34,7 @@ loss                        mean squared error of the Gaussian mean (after ``mea
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,19 +49,31 @@ BATCH = 1024
 CHUNK = 65_536
 
 
-def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
-                stop: Callable[[], bool] | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Drive ``venv`` with the analytic baseline for ``steps`` environment steps.
+class Demonstration(NamedTuple):
+    """Rows of :func:`demonstrate`: ``(rows, obs_dim)``, ``(rows, action_dim)`` and ``(rows,)``
+    float32, and the episodes that ended during it and how many of them succeeded."""
 
-    Returns the observations as ``venv`` gave them (normalised where it normalises), the
-    baseline's actions and the returns that followed (the rewards ``venv`` gave, discounted by
-    ``gamma`` to each row's episode end), ``(steps', obs_dim)``, ``(steps', action_dim)`` and
-    ``(steps',)`` float32 with ``steps' = max(1, steps // num_envs) * num_envs``. The returns
-    of the steps whose episode had not ended when the demonstration stopped are cut short
-    there (their last ``1 / (1 - gamma)`` steps are within one horizon of the cut). ``stop``
-    (checked before each vector step) ends the demonstration early: fewer rows. Raises
-    ``ValueError`` when the envs have no baseline.
+    obs: np.ndarray
+    actions: np.ndarray
+    returns: np.ndarray
+    episodes: int
+    successes: int
+
+
+def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
+                stop: Callable[[], bool] | None = None,
+                actor: Callable[[np.ndarray], np.ndarray] | None = None) -> Demonstration:
+    """Label ``steps`` environment steps of ``venv`` with the analytic baseline's actions.
+
+    The baseline drives, or ``actor`` (observations -> actions, e.g. the clone's deterministic
+    ``predict``) drives and the baseline's actions at the states it reaches are the labels
+    (DAgger). Returns the observations as ``venv`` gave them (normalised where it normalises),
+    the baseline's actions and the returns that followed (the rewards ``venv`` gave, discounted
+    by ``gamma`` to each row's episode end) over ``max(1, steps // num_envs) * num_envs``
+    rows. The returns of the steps whose episode had not ended when the demonstration stopped
+    are cut short there (their last ``1 / (1 - gamma)`` steps are within one horizon of the
+    cut). ``stop`` (checked before each vector step) ends the demonstration early: fewer rows.
+    Raises ``ValueError`` when the envs have no baseline.
     """
     from wheelgym.envs.baseline import baseline
 
@@ -64,18 +83,25 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     obs = venv.reset()
     O, A, R, D = [], [], [], []
+    episodes = successes = 0
     for _ in range(max(1, steps // venv.num_envs)):
         if stop is not None and O and stop():
             break
-        a = np.asarray(policy.actions(), dtype=np.float32)
+        a = np.asarray(policy.actions(), dtype=np.float32)  # the label, read before the step
         O.append(np.asarray(obs, dtype=np.float32).copy())
         A.append(a)
-        obs, r, done, _ = venv.step(a)  # rows that end are reset by the env; the baseline
-        # reads each row's state (and replans a car-like row at its episode's first step)
+        act = a if actor is None else np.asarray(actor(obs), dtype=np.float32)
+        obs, r, done, infos = venv.step(act)  # rows that end are reset by the env; the
+        # baseline reads each row's state (and replans a car-like row at its episode's first
+        # step)
         R.append(np.asarray(r, dtype=np.float64))
         D.append(np.asarray(done, dtype=bool))
+        for i in np.flatnonzero(D[-1]):
+            episodes += 1
+            successes += bool(infos[i].get("is_success", False))
     G = returns_to_go(np.array(R), np.array(D), gamma)
-    return np.concatenate(O), np.concatenate(A), G.reshape(-1).astype(np.float32)
+    return Demonstration(np.concatenate(O), np.concatenate(A),
+                         G.reshape(-1).astype(np.float32), episodes, successes)
 
 
 def returns_to_go(rewards: np.ndarray, done: np.ndarray, gamma: float) -> np.ndarray:
@@ -163,23 +189,57 @@ def value_error(model: Any, obs: np.ndarray, returns: np.ndarray) -> float:
 
 
 def clone_baseline(model: Any, steps: int, seed: int = 0,
-                   stop: Callable[[], bool] | None = None) -> dict[str, Any]:
-    """:func:`demonstrate` on ``model``'s envs, then :func:`fit_mean` (mean and value); the
-    figures of the fit (``steps``, ``mse_before``, ``mse_after``, ``value_mse_before``,
-    ``value_mse_after``) for the run's ``run.json``.
+                   stop: Callable[[], bool] | None = None, rounds: int = 1) -> dict[str, Any]:
+    """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
+
+    ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
+    ``steps // rounds``; each later round the clone as fitted so far drives (its deterministic
+    action) and the baseline labels the states it reaches (DAgger: the states a clone drifts
+    into are where it needs labels), and :func:`fit_mean` refits on all rows so far. Returns
+    the figures for the run's ``run.json``: ``steps`` (rows), the mean squared action error on
+    the baseline's rows before the fit (``mse_before``) and over the last pass of the last fit
+    (``mse_after``), the value error on the baseline's rows before and on all rows after
+    (``value_mse_before``, ``value_mse_after``) and, with ``rounds > 1``, per round who drove,
+    its episodes, the share of them that succeeded, and (from the second) the clone's action
+    error on the new rows before it refits (``rounds``).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
     """
     venv = model.get_env()
-    obs, actions, returns = demonstrate(venv, steps, gamma=float(model.gamma), stop=stop)
-    before = mean_error(model, obs, actions)
-    v_before = value_error(model, obs, returns)
-    after = fit_mean(model, obs, actions, returns, seed=seed, stop=stop)
+    gamma = float(model.gamma)
+    per = max(1, steps // rounds)
+    demo = demonstrate(venv, per, gamma=gamma, stop=stop)
+    O, A, G = [demo.obs], [demo.actions], [demo.returns]
+    log = [{"driver": "baseline", **_episodes(demo)}]
+    before = mean_error(model, demo.obs, demo.actions)
+    v_before = value_error(model, demo.obs, demo.returns)
+    after = float("nan")
+    for k in range(rounds):
+        if k:
+            demo = demonstrate(venv, per, gamma=gamma, stop=stop,
+                               actor=lambda o: model.predict(o, deterministic=True)[0])
+            log.append({"driver": "clone", **_episodes(demo),
+                        "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
+            O.append(demo.obs)
+            A.append(demo.actions)
+            G.append(demo.returns)
+        if stop is not None and stop():
+            break
+        after = fit_mean(model, np.concatenate(O), np.concatenate(A), np.concatenate(G),
+                         seed=seed + k, stop=stop)
+    obs, returns = np.concatenate(O), np.concatenate(G)
     fit: dict[str, Any] = {"steps": int(len(obs)), "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,
                            "value_mse_before": v_before,
                            "value_mse_after": value_error(model, obs, returns)}
+    if rounds > 1:
+        fit["rounds"] = log
     if stop is not None and stop():
         fit["interrupted"] = True
     return fit
+
+
+def _episodes(demo: Demonstration) -> dict[str, Any]:
+    return {"episodes": demo.episodes,
+            "success": round(demo.successes / demo.episodes, 4) if demo.episodes else None}

@@ -522,6 +522,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "reward_schedule": _reward_schedule,
     "mean_bound": _float(lo=1.0),
     "clone_baseline": _int(1),
+    "clone_rounds": _int(1),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -536,6 +537,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "reward_schedule": None,
     "mean_bound": None,
     "clone_baseline": None,
+    "clone_rounds": None,
 }
 
 
@@ -571,6 +573,9 @@ class TrainConfig:
                    the training envs for ``N`` steps; the policy's Gaussian mean is fitted to
                    its actions and the value network to the returns that followed
                    (:mod:`wheelgym.agents.clone`; not counted in ``n_timesteps``)
+    clone_rounds   ``None`` (one round) or ``K >= 1``: the ``N`` steps in ``K`` rounds; after
+                   the first, the clone drives and the baseline labels the states it visits
+                   (DAgger), and each round refits on all rows so far
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -593,6 +598,7 @@ class TrainConfig:
     reward_schedule: dict | None = None
     mean_bound: float | None = None
     clone_baseline: int | None = None
+    clone_rounds: int | None = None
     source: str = "<dict>"
 
     @property
@@ -654,6 +660,8 @@ class TrainConfig:
             wg["mean_bound"] = self.mean_bound
         if self.clone_baseline is not None:  # absent by default, like reward_schedule
             wg["clone_baseline"] = self.clone_baseline
+        if self.clone_rounds is not None:
+            wg["clone_rounds"] = self.clone_rounds
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -754,6 +762,9 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
                          f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
                          f"not {algo!r}")
+    if wg["clone_rounds"] is not None and wg["clone_baseline"] is None:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_rounds needs clone_baseline "
+                         f"(the steps the rounds share)")
 
     normalize = block.pop("normalize", False)
     noise = None
@@ -782,6 +793,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         reward_schedule=wg["reward_schedule"],
         mean_bound=wg["mean_bound"],
         clone_baseline=wg["clone_baseline"],
+        clone_rounds=wg["clone_rounds"],
         source=source,
     )
 

@@ -182,6 +182,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
     if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
         data[WHEELGYM_BLOCK].pop("mean_bound", None)
         data[WHEELGYM_BLOCK].pop("clone_baseline", None)
+        data[WHEELGYM_BLOCK].pop("clone_rounds", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 
