@@ -1,25 +1,26 @@
 """Clone the analytic baseline into a config's policy network, then let PPO fine-tune it.
 
-Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--finetune 1000000]
-[--episodes 50] [--out runs/clone]``.
+Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1]
+[--finetune 1000000] [--episodes 50] [--out runs/clone]``.
 
-A diagnostic of the ``navigate`` results (README, results section): the clone alone and the
-clone after PPO, scored with the discounted return PPO maximises (training with the config key
-``clone_baseline`` is ``wheelgym train``'s job). It answers two questions about a config whose
-PPO agent stays below the baseline:
+A diagnostic of the results that start from the baseline (README, results section; written
+for ``navigate``, it takes any PPO config with ``normalize``): the clone alone and the clone
+after PPO, scored with the discounted return PPO maximises (training with the config keys
+``clone_baseline`` and ``clone_rounds`` is ``wheelgym train``'s job). It answers two questions
+about a config whose PPO agent stays below the baseline:
 
-* **Is the observation enough?** :func:`wheelgym.agents.clone.clone_baseline` (the config key
-  ``clone_baseline``): the baseline drives the config's training envs for ``--steps`` steps and
-  the policy's Gaussian mean is fitted to its actions. The clone sees only the agent's
-  observation.
+* **Is the observation enough?** :func:`wheelgym.agents.clone.clone_baseline`: the baseline
+  labels ``--steps`` steps of the config's training envs (driving them, or with ``--rounds K``
+  the clone drives after the first of K rounds: DAgger) and the policy's Gaussian mean is
+  fitted to its actions. The clone sees only the agent's observation.
 * **Does the reward prefer what the success rate measures?** PPO then trains the clone for
-  ``--finetune`` steps with the config's hyperparameters (no reward schedule).
+  ``--finetune`` steps with the config's hyperparameters (no reward schedule; 0: none).
 
 Prints, for the baseline, the clone and the fine-tuned clone on the benchmark's evaluation
-seeds (``wheelgym.agents.benchmark.EVAL_SEED`` on): success, collisions, the mean return and the
-mean return discounted at the config's ``gamma`` (the objective PPO maximises). The two models
-are saved under ``--out`` (``clone/`` and ``finetuned/``, each ``model.zip`` and
-``vecnormalize.pkl``).
+seeds (``wheelgym.agents.benchmark.EVAL_SEED`` on): success, collisions, the mean return, the
+mean return discounted at the config's ``gamma`` (the objective PPO maximises), and the
+energy and internal force over the baseline's where the robot has them. The models are saved
+under ``--out`` (``clone/`` and ``finetuned/``, each ``model.zip`` and ``vecnormalize.pkl``).
 """
 
 from __future__ import annotations
@@ -55,11 +56,20 @@ def score(config, policy, episodes: int, gamma: float) -> dict[str, float]:
     eps = [run_episode(env, policy, EVAL_SEED + k) for k in range(episodes)]
     env.close()
     discounts = gamma ** np.arange(max(e.length for e in eps))
+    def mean(attr: str) -> float | None:
+        vals = [getattr(e, attr) for e in eps if getattr(e, attr) is not None]
+        return float(np.mean(vals)) if vals else None
+
     return {"success": float(np.mean([bool(e.success) for e in eps])),
             "collisions": sum(e.terminated and not e.success and not e.numerical_failure
                               for e in eps),
             "return": float(np.mean([e.ret for e in eps])),
-            "discounted": float(np.mean([discounts[:e.length] @ e.rewards for e in eps]))}
+            "discounted": float(np.mean([discounts[:e.length] @ e.rewards for e in eps])),
+            "energy": mean("energy"), "internal_force": mean("mean_internal_force")}
+
+
+def _ratio(s: dict, base: dict, key: str) -> str:
+    return "-" if s[key] is None or not base[key] else f"{s[key] / base[key]:.2f}x"
 
 
 def save(model, venv, out: Path):
@@ -73,7 +83,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("config", type=Path)
     ap.add_argument("--steps", type=int, default=1_000_000, help="baseline steps to clone")
-    ap.add_argument("--finetune", type=int, default=1_000_000, help="PPO steps after cloning")
+    ap.add_argument("--rounds", type=int, default=1,
+                    help="DAgger rounds over the --steps (clone_rounds; 1: the baseline drives)")
+    ap.add_argument("--finetune", type=int, default=1_000_000,
+                    help="PPO steps after cloning (0: none)")
     ap.add_argument("--episodes", type=int, default=50)
     ap.add_argument("--out", type=Path, default=Path("runs/clone"))
     a = ap.parse_args()
@@ -85,10 +98,13 @@ def main() -> None:
     venv = wrap_normalize(make_train_env(config), config)
     model = build_model(config, venv)
     t0 = time.perf_counter()
-    fit = clone_baseline(model, a.steps, seed=config.seed)
-    print(f"{a.config.name}: cloned {fit['steps']} baseline steps in "
-          f"{time.perf_counter() - t0:.0f} s (mean squared action error {fit['mse_before']:.2g} "
-          f"-> {fit['mse_after']:.2g})")
+    fit = clone_baseline(model, a.steps, seed=config.seed, rounds=a.rounds)
+    print(f"{a.config.name}: cloned {fit['steps']} baseline-labelled steps in {a.rounds} "
+          f"round(s), {time.perf_counter() - t0:.0f} s (mean squared action error "
+          f"{fit['mse_before']:.2g} -> {fit['mse_after']:.2g})")
+    for k, r in enumerate(fit.get("rounds", [])):
+        print(f"  round {k + 1}: the {r['driver']} drove {r['episodes']} episodes, "
+              f"{r['success']:.0%} success")
     rows = [("baseline", score(config, "baseline", a.episodes, gamma)),
             ("clone", score(config, save(model, venv, a.out / "clone"), a.episodes, gamma))]
     if a.finetune > 0:
@@ -97,11 +113,14 @@ def main() -> None:
         print(f"PPO fine-tuning: {a.finetune} steps in {time.perf_counter() - t0:.0f} s")
         rows.append((f"clone + PPO {a.finetune // 1000}k",
                      score(config, save(model, venv, a.out / "finetuned"), a.episodes, gamma)))
-    print(f"| policy | success | collisions | return | return discounted at {gamma} |")
-    print("|---|---|---|---|---|")
+    base = rows[0][1]
+    print(f"| policy | success | collisions | return | return discounted at {gamma} | "
+          f"energy / baseline | internal force / baseline |")
+    print("|---|---|---|---|---|---|---|")
     for name, s in rows:
         print(f"| {name} | {s['success']:.0%} | {s['collisions']} | {s['return']:.2f} | "
-              f"{s['discounted']:.2f} |")
+              f"{s['discounted']:.2f} | {_ratio(s, base, 'energy')} | "
+              f"{_ratio(s, base, 'internal_force')} |")
 
 
 if __name__ == "__main__":
