@@ -5,11 +5,13 @@ and every agent actually shipped."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import re
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -18,10 +20,13 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+import torch as th  # noqa: E402
+
 import wheelgym.agents.pretrained as pretrained  # noqa: E402
 from wheelgym.agents.benchmark import COLUMNS, read_rows, run_jobs  # noqa: E402
 from wheelgym.agents.common import make_single_env  # noqa: E402
 from wheelgym.agents.config import configs_dir, load_config  # noqa: E402
+from wheelgym.agents.policies import load_agent  # noqa: E402
 from wheelgym.agents.pretrained import (  # noqa: E402
     ROOT_ENV,
     SIZE_LIMIT_MB,
@@ -84,7 +89,22 @@ def test_export_copies_the_best_seed_with_its_card(bench):
     assert sorted(p.name for p in folder.iterdir()) == ["card.json", "config.yml", "model.zip",
                                                         "vecnormalize.pkl"]
     run = Path(best["run_dir"])
-    assert (folder / "model.zip").read_bytes() == (run / "model.zip").read_bytes()
+    # the weights as trained, byte for byte; the optimizer's moments left out (smaller file)
+    with zipfile.ZipFile(folder / "model.zip") as shipped, \
+            zipfile.ZipFile(run / "model.zip") as trained:
+        assert shipped.namelist() == trained.namelist()
+        for entry in trained.namelist():
+            if entry != "policy.optimizer.pth":
+                assert shipped.read(entry) == trained.read(entry), entry
+        opt = th.load(io.BytesIO(shipped.read("policy.optimizer.pth")), weights_only=True)
+        full = th.load(io.BytesIO(trained.read("policy.optimizer.pth")), weights_only=True)
+        assert opt["state"] == {} and full["state"] and opt["param_groups"] == full[
+            "param_groups"]
+    assert (folder / "model.zip").stat().st_size < 0.6 * (run / "model.zip").stat().st_size
+    trained_agent = load_agent(run / "model.zip", "ppo", run / "vecnormalize.pkl")
+    obs = np.random.default_rng(0).normal(size=(8, trained_agent.model.observation_space.shape[0]))
+    np.testing.assert_array_equal(load_pretrained(NAME, bench.root)[0].predict(obs)[0],
+                                  trained_agent.predict(obs)[0])
     assert (folder / "vecnormalize.pkl").read_bytes() == (run / "vecnormalize.pkl").read_bytes()
     card = read_card(NAME, bench.root)
     assert card == json.loads((folder / "card.json").read_text())

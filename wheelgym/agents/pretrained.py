@@ -6,7 +6,10 @@ the benchmark's results CSV by :func:`export_best` (``wheelgym pretrained export
 ==================== ==========================================================================
 file                 content
 ==================== ==========================================================================
-model.zip            the best seed's final model (Stable-Baselines3 ``<Algo>.load``)
+model.zip            the best seed's final model (Stable-Baselines3 ``<Algo>.load``), its
+                     weights as trained; the optimizer's moment estimates are left out
+                     (:func:`slim_model`: two thirds of an Adam-trained file, needed only to
+                     train on)
 vecnormalize.pkl     its ``VecNormalize`` statistics (configs with ``normalize`` only)
 config.yml           the run's config as used (``load_config``): env id, env kwargs, algorithm
 card.json            config name, algorithm, env id and kwargs, seed, training steps, the
@@ -31,10 +34,12 @@ takes a ``root``.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
 import shutil
+import zipfile
 from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
@@ -53,6 +58,7 @@ __all__ = [
     "read_card",
     "export_best",
     "best_row",
+    "slim_model",
 ]
 
 #: Environment variable naming another folder of pretrained agents (tests, private agents).
@@ -185,6 +191,34 @@ def _shown(path: Path) -> str:
         return str(path)
 
 
+#: The entry of an SB3 model file holding the optimizer's state dict.
+OPTIMIZER_ENTRY = "policy.optimizer.pth"
+
+
+def slim_model(src: str | Path) -> bytes:
+    """``src`` (an SB3 ``model.zip``) without the optimizer's per-parameter state.
+
+    The optimizer's state dict keeps its parameter groups (learning rate, betas) and loses its
+    ``state`` (Adam's two moment estimates per weight: twice the weights' size), so
+    ``<Algo>.load`` still reads the file; a run trained on from it starts the moments afresh.
+    Every other entry, the weights included, is copied byte for byte.
+    """
+    import torch
+
+    out = io.BytesIO()
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+        for info in zin.infolist():
+            data = zin.read(info)
+            if info.filename == OPTIMIZER_ENTRY:
+                state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+                state["state"] = {}
+                buf = io.BytesIO()
+                torch.save(state, buf)
+                data = buf.getvalue()
+            zout.writestr(info, data)
+    return out.getvalue()
+
+
 def export_best(
     csv_path: str | Path,
     configs: Sequence[str | Path] | None = None,
@@ -195,7 +229,8 @@ def export_best(
 
     ``configs``: names or config paths (their stems) to export (default: every config in the
     CSV). ``out_root``: default ``$WHEELGYM_PRETRAINED`` or the repository's
-    ``agents/pretrained`` (created). Per config: the run's final ``model.zip``,
+    ``agents/pretrained`` (created). Per config: the run's final ``model.zip`` (through
+    :func:`slim_model`),
     ``vecnormalize.pkl`` (when the config normalises), ``config.yml``, and a ``card.json``
     from the CSV row; an existing folder of that name is replaced, others are kept. Refuses
     (``ValueError``, nothing written) when a run folder lacks a file or the folder's total
@@ -228,8 +263,10 @@ def export_best(
         if missing:
             raise ValueError(f"{where}: missing {missing}")
         plans.append((name, row, config, files))
+    models = {name: slim_model(files[MODEL]) for name, _, _, files in plans}
 
-    new_bytes = sum(_size(p) for _, _, _, files in plans for p in files.values())
+    new_bytes = sum(len(models[name]) if f == MODEL else _size(p)
+                    for name, _, _, files in plans for f, p in files.items())
     kept = ([p for p in root.iterdir() if p.name not in names and not p.name.startswith(".")]
             if root.is_dir() else [])
     total = new_bytes + sum(_size(p) for p in kept) + 4096 * len(plans)  # cards
@@ -248,7 +285,10 @@ def export_best(
         tmp.mkdir()
         try:
             for fname, src in files.items():
-                shutil.copyfile(src, tmp / fname)
+                if fname == MODEL:
+                    (tmp / fname).write_bytes(models[name])
+                else:
+                    shutil.copyfile(src, tmp / fname)
             card: dict[str, Any] = {
                 "config": name,
                 "algo": config.algo,
