@@ -56,6 +56,7 @@ def score(config, policy, episodes: int, gamma: float) -> dict[str, float]:
     eps = [run_episode(env, policy, EVAL_SEED + k) for k in range(episodes)]
     env.close()
     discounts = gamma ** np.arange(max(e.length for e in eps))
+
     def mean(attr: str) -> float | None:
         vals = [getattr(e, attr) for e in eps if getattr(e, attr) is not None]
         return float(np.mean(vals)) if vals else None

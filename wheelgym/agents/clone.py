@@ -209,26 +209,23 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     venv = model.get_env()
     gamma = float(model.gamma)
     per = max(1, steps // rounds)
-    demo = demonstrate(venv, per, gamma=gamma, stop=stop)
-    O, A, G = [demo.obs], [demo.actions], [demo.returns]
+    obs, actions, returns, _, _ = demo = demonstrate(venv, per, gamma=gamma, stop=stop)
     log = [{"driver": "baseline", **_episodes(demo)}]
-    before = mean_error(model, demo.obs, demo.actions)
-    v_before = value_error(model, demo.obs, demo.returns)
+    before = mean_error(model, obs, actions)
+    v_before = value_error(model, obs, returns)
     after = float("nan")
     for k in range(rounds):
-        if k:
+        if k:  # all rows so far, and the new ones
             demo = demonstrate(venv, per, gamma=gamma, stop=stop,
                                actor=lambda o: model.predict(o, deterministic=True)[0])
             log.append({"driver": "clone", **_episodes(demo),
                         "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
-            O.append(demo.obs)
-            A.append(demo.actions)
-            G.append(demo.returns)
+            obs = np.concatenate([obs, demo.obs])
+            actions = np.concatenate([actions, demo.actions])
+            returns = np.concatenate([returns, demo.returns])
         if stop is not None and stop():
             break
-        after = fit_mean(model, np.concatenate(O), np.concatenate(A), np.concatenate(G),
-                         seed=seed + k, stop=stop)
-    obs, returns = np.concatenate(O), np.concatenate(G)
+        after = fit_mean(model, obs, actions, returns, seed=seed + k, stop=stop)
     fit: dict[str, Any] = {"steps": int(len(obs)), "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,
                            "value_mse_before": v_before,

@@ -491,27 +491,35 @@ def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool
             error = e
             raise
         finally:
-            notes = []
-            try:
-                _save(model, run_dir)
-            except Exception as e:  # never mask the training's own exception
-                notes.append(f"saving the model failed: {type(e).__name__}: {e}")
-            try:
-                model.get_env().close()
-            except Exception as e:
-                notes.append(f"closing the environments failed: {type(e).__name__}: {e}")
-            info.update(
-                status=status,
-                timesteps=int(model.num_timesteps),
-                wall_s=round(wall_before + time.perf_counter() - t0, 2),
-                finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            )
-            if error is not None:
-                info["error"] = _short(f"{type(error).__name__}: {error}")
-            if notes:
-                info["notes"] = notes
-            _write_json(run_dir / "run.json", info)
+            _finish(model, run_dir, info, status,
+                    round(wall_before + time.perf_counter() - t0, 2), error)
     return TrainResult(run_dir, status, int(model.num_timesteps), info["wall_s"])
+
+
+def _finish(model, run_dir: Path, info: dict, status: str, wall_s: float,
+            error: BaseException | None = None) -> None:
+    """Save the model and statistics, close the envs and record ``status`` in run.json; a
+    failure to save or close becomes a note there (never masking the run's own ``error``)."""
+    notes = []
+    try:
+        _save(model, run_dir)
+    except Exception as e:
+        notes.append(f"saving the model failed: {type(e).__name__}: {e}")
+    try:
+        model.get_env().close()
+    except Exception as e:
+        notes.append(f"closing the environments failed: {type(e).__name__}: {e}")
+    info.update(
+        status=status,
+        timesteps=int(model.num_timesteps),
+        wall_s=wall_s,
+        finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    )
+    if error is not None:
+        info["error"] = _short(f"{type(error).__name__}: {error}")
+    if notes:
+        info["notes"] = notes
+    _write_json(run_dir / "run.json", info)
 
 
 def train(
@@ -615,20 +623,9 @@ def _clone(config: TrainConfig, model, run_dir: Path, info: dict) -> TrainResult
     info["wall_s"] = wall
     if not fit.get("interrupted"):
         return None
-    notes = []
-    try:
-        _save(model, run_dir)
-    finally:
-        try:
-            model.get_env().close()
-        except Exception as e:
-            notes.append(f"closing the environments failed: {type(e).__name__}: {e}")
-        info.update(status="interrupted", timesteps=0, target_timesteps=config.n_timesteps,
-                    finished_utc=datetime.now(timezone.utc).isoformat(timespec="seconds"))
-        if notes:
-            info["notes"] = notes
-        _write_json(run_dir / "run.json", info)
-    return TrainResult(run_dir, "interrupted", 0, wall)
+    info["target_timesteps"] = config.n_timesteps
+    _finish(model, run_dir, info, "interrupted", wall)
+    return TrainResult(run_dir, "interrupted", int(model.num_timesteps), wall)
 
 
 def check_reward_schedule(config: TrainConfig, venv) -> None:
