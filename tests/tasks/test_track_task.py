@@ -89,3 +89,43 @@ def test_path_is_the_reference_from_step_zero():
     assert path.shape == (len(range(0, task.span, 7)), 2)
     for n, k in enumerate(range(0, task.span, 7)):
         np.testing.assert_allclose(path[n], _direct(task, 1, k)[:2], rtol=0, atol=1e-12)
+
+
+def _tightest_radius(ref, kind: str) -> float:
+    """Smallest radius of curvature ``|v| / |w|`` (m) of ``ref`` over one lap (the quintic
+    circle over its moving part), sampled every 1/4000 of it."""
+    t = np.linspace(0.0, ref.duration, 4001)
+    _, twist, _ = ref.evaluate(t)
+    v, w = np.hypot(twist[:, 0], twist[:, 1]), np.abs(twist[:, 2])
+    if kind == "quintic_circle":  # it starts and ends at rest (0 / 0)
+        keep = v > 1e-3 * v.max()
+        v, w = v[keep], w[keep]
+    return float(np.min(v / np.maximum(w, 1e-12)))
+
+
+def _drawn(robot: str, n: int) -> list[tuple[str, float]]:
+    core = WheelCore(robot, n, task="track")
+    core.reset(None, [np.random.default_rng(s) for s in range(n)])
+    return [(core.task.kind[i], _tightest_radius(core.task.objs[i], core.task.kind[i]))
+            for i in range(n)]
+
+
+@pytest.mark.parametrize("robot", ["Bicycle", "Ackermann"])
+def test_car_references_stay_within_the_turning_radius(robot):
+    """Sampled curvature of every drawn reference (not the ``0.2088 A`` the task scales
+    by): no turn tighter than ``min_radius_factor * l / tan(psi_max)`` (0.5 m / tan 30 deg =
+    0.866 m), and the tightest eight close to it (scaled up just enough)."""
+    r_min = 0.5 / math.tan(math.radians(30.0))
+    limit = TrackTask.min_radius_factor * r_min
+    drawn = _drawn(robot, 60)
+    assert {k for k, _ in drawn} == set(TrackTask.references)
+    assert min(r for _, r in drawn) >= limit * (1 - 1e-4)
+    eights = [r for k, r in drawn if k == "figure_eight"]
+    assert min(eights) < 1.1 * limit
+
+
+def test_robots_that_turn_in_place_keep_tight_references():
+    """DiffDrive's drawn eights turn at 0.21-0.42 m (``0.2088 A``, ``A`` in 1-2 m): unscaled."""
+    eights = [r for k, r in _drawn("DiffDrive", 60) if k == "figure_eight"]
+    assert eights and 0.2087 <= min(eights) and max(eights) <= 0.4176
+    assert min(eights) < 0.25

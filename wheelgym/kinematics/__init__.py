@@ -4,6 +4,7 @@ from wheelgym.kinematics.car_tracking import (
     CarCommand,
     CarLimits,
     CarTracker,
+    min_turning_radius,
     rear_wheel_steering,
 )
 from wheelgym.kinematics.diffdrive import (
@@ -57,6 +58,7 @@ __all__ = [
     "SingularityAnalysis",
     "body_velocity",
     "evaluate_batch",
+    "min_turning_radius",
     "plan_rtr",
     "quintic_scaling",
     "rear_wheel_steering",

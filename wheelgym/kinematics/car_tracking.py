@@ -48,9 +48,18 @@ import numpy as np
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, Segment, reeds_shepp_path, sample
 from wheelgym.models.elementwise import wrap_angle
 
-__all__ = ["CarLimits", "CarCommand", "CarTracker", "rear_wheel_steering"]
+__all__ = ["CarLimits", "CarCommand", "CarTracker", "rear_wheel_steering", "min_turning_radius"]
 
 _MODES = ("VehicleSpeedSteeringAngle", "VehicleSpeedHeadingRate", "VehicleSpeedSteeringRate")
+
+
+def min_turning_radius(params: Any) -> float:
+    """Smallest turning radius (m) of a robot with parameters ``params``: ``l / tan(psi_max)``
+    for the car-like robots (``wheelbase`` and ``max_steering_angle``: the rear axle's circle at
+    full lock), 0 for robots that turn in place."""
+    if not hasattr(params, "max_steering_angle"):
+        return 0.0
+    return float(params.wheelbase) / math.tan(float(params.max_steering_angle))
 
 
 def rear_wheel_steering(e: float, theta_e: float, kappa_ref: float, direction: int,
@@ -102,7 +111,7 @@ class CarLimits:
     @property
     def min_radius(self) -> float:
         """Smallest turning radius ``l / tan(psi_max)`` (m)."""
-        return self.wheelbase / math.tan(self.max_steering_angle)
+        return min_turning_radius(self)
 
 
 class CarCommand(NamedTuple):

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from wheelgym.kinematics.car_tracking import min_turning_radius
 from wheelgym.kinematics.references import (
     Circle,
     FigureEight,
@@ -551,9 +552,17 @@ class TrackTask(Task):
     short window costs the single env ~4 us a step). All hold the same values
     (element-wise evaluation).
 
+    The drawn references respect the robot's turning radius: for a car-like robot (Bicycle,
+    Ackermann: ``R_min = l / tan(psi_max)``, 0.87 m by default) circle and quintic-circle radii
+    and the figure-eight's size are scaled up (speeds unchanged) so that no reference turns
+    tighter than :attr:`min_radius_factor` ``R_min``. The eight
+    ``(A sin wt, A/2 sin 2wt)`` turns tightest at ``wt = 0.900`` rad and its symmetric points,
+    radius ``0.2088 A``: unscaled (``A`` 1-2 m, radii 0.21-0.42 m) a car cannot follow it
+    without backing and filling. Robots that turn in place draw the unscaled references.
+
     Reset options: ``reference`` (a :class:`~wheelgym.kinematics.references.Reference`, followed
-    from its time 0 as placed, no random rotation or offset) and ``start`` (the robot's start
-    pose instead of the reference's first pose).
+    from its time 0 as placed, no random rotation or offset; it may be as tight as the user
+    likes) and ``start`` (the robot's start pose instead of the reference's first pose).
     """
 
     name = "track"
@@ -568,6 +577,14 @@ class TrackTask(Task):
     #: A step counts as success (``is_success``) within this distance (m).
     tol_pos = 0.05
     references = ("circle", "figure_eight", "quintic_circle")
+    #: Drawn references turn no tighter than this times the robot's smallest turning radius
+    #: (the car planner's margin, :class:`~wheelgym.kinematics.CarTracker`'s ``radius_factor``:
+    #: the rest of the steering range is the feedback's).
+    min_radius_factor = 1.25
+    #: Smallest radius (m) of each drawn reference kind at scale 1: circle and quintic-circle
+    #: radii from 0.8 m, the figure-eight's ``0.20876 A`` (the lemniscate's smallest radius of
+    #: curvature, found numerically; rounded down) with ``A`` from 1 m.
+    _tightest = {"circle": 0.8, "figure_eight": 0.2087, "quintic_circle": 0.8}
     #: Control steps of the reference held per row in a batch.
     window = 64
     #: Batches of up to this many robots keep ``horizon`` steps (+ the previews) instead.
@@ -599,6 +616,9 @@ class TrackTask(Task):
         self._slack = 0  # steps before any row's window must move on
         self.cfg = np.array([core.spec.v_max, core.spec.w_max, self.lost_dist, self.tol_pos,
                              POS_CLIP, core.vclip, core.wclip])
+        # size factor of each drawn kind: 1 for robots that turn in place
+        r = self.min_radius_factor * min_turning_radius(core.base_params)
+        self.scale = {k: max(1.0, r / tight) for k, tight in self._tightest.items()}
 
     def obs_layout(self):
         tail, tnames = self._tail_bounds()
@@ -615,17 +635,19 @@ class TrackTask(Task):
         vmax = 0.5 * self.core.spec.twist_max[0]
         kind = self.references[int(rng.integers(len(self.references)))]
         cw = bool(rng.integers(2))
+        k = self.scale[kind]  # the turning-radius scale (1 unless a car)
         if kind == "circle":
-            ref = Circle(radius=rng.uniform(0.8, 2.0), speed=rng.uniform(0.4, 1.0) * vmax,
+            ref = Circle(radius=rng.uniform(0.8, 2.0) * k, speed=rng.uniform(0.4, 1.0) * vmax,
                          clockwise=cw)
             t0 = rng.uniform(0.0, ref.duration)
         elif kind == "figure_eight":
-            size = rng.uniform(1.0, 2.0)
+            size = rng.uniform(1.0, 2.0) * k
             # lap length of the eight is about 6.1 size; mean speed up to vmax
             ref = FigureEight(size=size, period=6.1 * size / (rng.uniform(0.4, 1.0) * vmax))
             t0 = rng.uniform(0.0, ref.duration)
         else:
-            ref = QuinticCircle(radius=rng.uniform(0.8, 1.5), duration=rng.uniform(20.0, 40.0))
+            ref = QuinticCircle(radius=rng.uniform(0.8, 1.5) * k,
+                                duration=rng.uniform(20.0, 40.0))
             t0 = 0.0
         return kind, ref, t0
 
