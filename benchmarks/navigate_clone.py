@@ -1,6 +1,6 @@
 """Clone the analytic baseline into a config's policy network, then let PPO fine-tune it.
 
-Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1]
+Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1] [--epochs 10]
 [--finetune 1000000] [--episodes 50] [--out runs/clone]``.
 
 A diagnostic of the results that start from the baseline (README, results section; written
@@ -86,6 +86,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1_000_000, help="baseline steps to clone")
     ap.add_argument("--rounds", type=int, default=1,
                     help="DAgger rounds over the --steps (clone_rounds; 1: the baseline drives)")
+    ap.add_argument("--epochs", type=int, default=None,
+                    help="passes of each round's fit (clone_epochs; default clone.EPOCHS)")
     ap.add_argument("--finetune", type=int, default=1_000_000,
                     help="PPO steps after cloning (0: none)")
     ap.add_argument("--episodes", type=int, default=50)
@@ -99,7 +101,7 @@ def main() -> None:
     venv = wrap_normalize(make_train_env(config), config)
     model = build_model(config, venv)
     t0 = time.perf_counter()
-    fit = clone_baseline(model, a.steps, seed=config.seed, rounds=a.rounds)
+    fit = clone_baseline(model, a.steps, seed=config.seed, rounds=a.rounds, epochs=a.epochs)
     print(f"{a.config.name}: cloned {fit['steps']} baseline-labelled steps in {a.rounds} "
           f"round(s), {time.perf_counter() - t0:.0f} s (mean squared action error "
           f"{fit['mse_before']:.2g} -> {fit['mse_after']:.2g})")

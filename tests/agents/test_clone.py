@@ -63,6 +63,16 @@ def test_clone_baseline_is_checked_and_written_only_when_set():
     for bad in (0, 2.5, "3"):
         with pytest.raises(ValueError, match="clone_rounds"):
             parse_config(tiny_config(clone_baseline=4096, clone_rounds=bad))
+    epochs = parse_config(tiny_config(clone_baseline=4096, clone_epochs=4))
+    assert epochs.clone_epochs == 4 and epochs.to_dict()["wheelgym"]["clone_epochs"] == 4
+    assert "clone_epochs" not in cfg.to_dict()["wheelgym"] and cfg.clone_epochs is None
+    assert parse_config(epochs.to_dict()) == epochs
+    assert config_digest(epochs) != config_digest(cfg)
+    with pytest.raises(ValueError, match="clone_epochs needs clone_baseline"):
+        parse_config(tiny_config(clone_epochs=2))
+    for bad in (0, 2.5, "3", True):
+        with pytest.raises(ValueError, match="clone_epochs"):
+            parse_config(tiny_config(clone_baseline=4096, clone_epochs=bad))
     sac = tiny_sac_config(clone_baseline=100)
     with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
         parse_config(sac)
@@ -122,6 +132,13 @@ def test_a_cloned_run_records_the_fit_and_trains_on(tmp_path):
     assert info["wall_s"] >= info["clone"]["wall_s"]
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
     assert written["wheelgym"]["clone_baseline"] == 2048
+    assert info["clone"]["epochs"] == 10  # clone.EPOCHS
+    # clone_epochs: fewer passes over the same rows (same seed) leave a larger error
+    one = train(parse_config(_nav_config(clone_baseline=2048, clone_epochs=1)),
+                runs_root=tmp_path / "one", progress=False)
+    fit_one = json.loads((one.run_dir / "run.json").read_text())["clone"]
+    assert fit_one["epochs"] == 1 and fit_one["mse_before"] == info["clone"]["mse_before"]
+    assert fit_one["mse_after"] > info["clone"]["mse_after"], (fit_one, info["clone"])
 
 
 def test_returns_to_go_discount_to_each_rows_episode_end():

@@ -23,7 +23,8 @@ demonstration               ``N`` steps over the ``n_envs`` training envs (``N /
                             vector steps), deterministic baseline actions in the action box;
                             in ``K`` rounds of ``N // K`` with ``clone_rounds``
 fit                         Adam, learning rate 1e-3, batches of 1024, :data:`EPOCHS` passes
-                            (per round, over all rows so far), shuffled by a generator seeded
+                            (``clone_epochs`` where set; per round, over all rows so far),
+                            shuffled by a generator seeded
                             with the config's seed (plus the round's index)
 loss                        mean squared error of the Gaussian mean (after ``mean_bound``'s
                             squash where set) to the baseline's action, plus that of the
@@ -189,13 +190,15 @@ def value_error(model: Any, obs: np.ndarray, returns: np.ndarray) -> float:
 
 
 def clone_baseline(model: Any, steps: int, seed: int = 0,
-                   stop: Callable[[], bool] | None = None, rounds: int = 1) -> dict[str, Any]:
+                   stop: Callable[[], bool] | None = None, rounds: int = 1,
+                   epochs: int | None = None) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
     ``steps // rounds``; each later round the clone as fitted so far drives (its deterministic
     action) and the baseline labels the states it reaches (DAgger: the states a clone drifts
-    into are where it needs labels), and :func:`fit_mean` refits on all rows so far. Returns
+    into are where it needs labels), and :func:`fit_mean` refits on all rows so far, ``epochs``
+    passes each (default :data:`EPOCHS`). Returns
     the figures for the run's ``run.json``: ``steps`` (rows), the mean squared action error on
     the baseline's rows before the fit (``mse_before``) and over the last pass of the last fit
     (``mse_after``), the value error on the baseline's rows before and on all rows after
@@ -225,8 +228,10 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
             returns = np.concatenate([returns, demo.returns])
         if stop is not None and stop():
             break
-        after = fit_mean(model, obs, actions, returns, seed=seed + k, stop=stop)
-    fit: dict[str, Any] = {"steps": int(len(obs)), "mse_before": before,
+        after = fit_mean(model, obs, actions, returns, epochs=epochs or EPOCHS, seed=seed + k,
+                         stop=stop)
+    fit: dict[str, Any] = {"steps": int(len(obs)), "epochs": epochs or EPOCHS,
+                           "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,
                            "value_mse_before": v_before,
                            "value_mse_after": value_error(model, obs, returns)}

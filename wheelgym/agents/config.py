@@ -523,6 +523,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "mean_bound": _float(lo=1.0),
     "clone_baseline": _int(1),
     "clone_rounds": _int(1),
+    "clone_epochs": _int(1),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -538,6 +539,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "mean_bound": None,
     "clone_baseline": None,
     "clone_rounds": None,
+    "clone_epochs": None,
 }
 
 
@@ -576,6 +578,9 @@ class TrainConfig:
     clone_rounds   ``None`` (one round) or ``K >= 1``: the ``N`` steps in ``K`` rounds; after
                    the first, the clone drives and the baseline labels the states it visits
                    (DAgger), and each round refits on all rows so far
+    clone_epochs   ``None`` (:data:`wheelgym.agents.clone.EPOCHS`, 10) or ``E >= 1``: passes of
+                   each round's fit over the rows so far (the fit is most of a DAgger run's
+                   time; later rounds start from the last fit)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -599,6 +604,7 @@ class TrainConfig:
     mean_bound: float | None = None
     clone_baseline: int | None = None
     clone_rounds: int | None = None
+    clone_epochs: int | None = None
     source: str = "<dict>"
 
     @property
@@ -662,6 +668,8 @@ class TrainConfig:
             wg["clone_baseline"] = self.clone_baseline
         if self.clone_rounds is not None:
             wg["clone_rounds"] = self.clone_rounds
+        if self.clone_epochs is not None:
+            wg["clone_epochs"] = self.clone_epochs
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -762,9 +770,10 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
                          f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
                          f"not {algo!r}")
-    if wg["clone_rounds"] is not None and wg["clone_baseline"] is None:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_rounds needs clone_baseline "
-                         f"(the steps the rounds share)")
+    for key in ("clone_rounds", "clone_epochs"):
+        if wg[key] is not None and wg["clone_baseline"] is None:
+            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs clone_baseline "
+                             f"(the steps it works on)")
 
     normalize = block.pop("normalize", False)
     noise = None
@@ -794,6 +803,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         mean_bound=wg["mean_bound"],
         clone_baseline=wg["clone_baseline"],
         clone_rounds=wg["clone_rounds"],
+        clone_epochs=wg["clone_epochs"],
         source=source,
     )
 

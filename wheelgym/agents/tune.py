@@ -183,6 +183,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         data[WHEELGYM_BLOCK].pop("mean_bound", None)
         data[WHEELGYM_BLOCK].pop("clone_baseline", None)
         data[WHEELGYM_BLOCK].pop("clone_rounds", None)
+        data[WHEELGYM_BLOCK].pop("clone_epochs", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 
