@@ -21,6 +21,9 @@ from wheelgym.agents.benchmark import config_digest  # noqa: E402
 from wheelgym.agents.clone import (  # noqa: E402
     clone_baseline,
     demonstrate,
+    fit_mean,
+    force_error,
+    internal_force_rows,
     mean_error,
     returns_to_go,  # noqa: E402
 )
@@ -73,6 +76,17 @@ def test_clone_baseline_is_checked_and_written_only_when_set():
     for bad in (0, 2.5, "3", True):
         with pytest.raises(ValueError, match="clone_epochs"):
             parse_config(tiny_config(clone_baseline=4096, clone_epochs=bad))
+    force = parse_config(tiny_config(clone_baseline=4096, clone_internal_force=10))
+    assert force.clone_internal_force == 10.0
+    assert force.to_dict()["wheelgym"]["clone_internal_force"] == 10.0
+    assert "clone_internal_force" not in cfg.to_dict()["wheelgym"]
+    assert parse_config(force.to_dict()) == force
+    assert config_digest(force) != config_digest(cfg)
+    with pytest.raises(ValueError, match="clone_internal_force needs clone_baseline"):
+        parse_config(tiny_config(clone_internal_force=1.0))
+    for bad in (-1.0, float("nan"), "3", True):
+        with pytest.raises(ValueError, match="clone_internal_force"):
+            parse_config(tiny_config(clone_baseline=4096, clone_internal_force=bad))
     sac = tiny_sac_config(clone_baseline=100)
     with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
         parse_config(sac)
@@ -90,7 +104,7 @@ def test_the_fitted_mean_reproduces_the_baseline_on_states_it_did_not_see():
     assert fit["value_mse_after"] < 0.5 * fit["value_mse_before"], fit
     # held out: the baseline drives on from where the demonstration stopped (new episodes)
     venv.training = False  # the statistics as fitted
-    obs, actions, returns, _, _ = demonstrate(venv, 4096, gamma=0.5)
+    obs, actions, returns = demonstrate(venv, 4096, gamma=0.5)[:3]
     assert np.all(np.abs(actions) <= 1.0) and obs.shape[0] == actions.shape[0] == 4096
     assert returns.shape == (4096,) and np.all(np.isfinite(returns))
     held_out = mean_error(model, obs, actions)
@@ -171,3 +185,86 @@ def test_ctrl_c_during_the_clone_keeps_the_model_and_resume_clones_again(tmp_pat
     info = json.loads((run / "run.json").read_text())
     assert info["clone"]["steps"] == 2048 and "interrupted" not in info["clone"], info
     assert info["clone"]["mse_after"] < info["clone"]["mse_before"]
+
+
+TORQUE_NAV = {"task": "navigate", "action_mode": "torque"}
+
+
+def _torque_config(**wg):
+    data = tiny_config(**wg)
+    data["wheelgym"]["env_kwargs"] = dict(TORQUE_NAV)
+    data["wheelgym"]["vec_env"] = "native"
+    data["wheelgym/ThreeWheel-v0"]["policy_kwargs"] = {"net_arch": [64, 64]}
+    return data
+
+
+def test_internal_force_rows_measure_the_null_space_part_of_an_action():
+    """``|W a|`` is the internal force ``|P tau| / |tau_max|`` of the torque ``tau = a tau_max``
+    (TW-6): zero for torques ``J u`` that move the robot, ``|c| / |tau_max|`` for ``N c``."""
+    from wheelgym.control.distribution import internal_force, null_space_basis
+    from wheelgym.envs.baseline import baseline
+
+    cfg = parse_config(_torque_config()).replace(n_envs=4)
+    venv = make_train_env(cfg)
+    venv.reset()
+    core = baseline(venv).core
+    rng = np.random.default_rng(0)
+    core.X[:, 6:9] = rng.uniform(-np.pi, np.pi, (4, 3))  # steering angles away from 0
+    W = internal_force_rows(core).astype(np.float64)
+    assert W.shape == (4, 3, 6)
+    J = core.model.jacobian(core.X[:, 6:9])
+    scale = float(np.linalg.norm(core.base_params.tau_max))
+    hi = core.HI
+    moving = np.einsum("nij,nj->ni", J, rng.normal(size=(4, 3)))  # J u: range of J
+    np.testing.assert_allclose(np.einsum("nkm,nm->nk", W, moving / hi), 0.0, atol=1e-6)
+    N = null_space_basis(J)
+    c = rng.normal(size=(4, 3))
+    inner = np.einsum("nmk,nk->nm", N, c)  # internal: moves nothing (J^T tau = 0)
+    np.testing.assert_allclose(np.einsum("nij,ni->nj", J, inner), 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(np.einsum("nkm,nm->nk", W, inner / hi), axis=1),
+                               np.linalg.norm(c, axis=1) / scale, rtol=1e-5)
+    a = rng.uniform(-1, 1, (4, 6))  # any action: the projector's formula
+    np.testing.assert_allclose(np.linalg.norm(np.einsum("nkm,nm->nk", W, a), axis=1),
+                               np.linalg.norm(internal_force(J, a * hi), axis=1) / scale,
+                               rtol=1e-5)
+    venv.close()
+    nav = make_train_env(parse_config(_nav_config()))
+    nav.reset()
+    with pytest.raises(ValueError, match="clone_internal_force: needs a robot with an "
+                                         "internal force in action mode 'torque'"):
+        internal_force_rows(baseline(nav).core)
+    nav.close()
+
+
+def test_weighting_the_internal_force_of_the_error_lowers_the_clones_internal_force():
+    cfg = parse_config(_torque_config()).replace(n_envs=16)
+    venv = wrap_normalize(make_train_env(cfg), cfg)
+    demo = demonstrate(venv, 16_384, internal_force=True)
+    held = demonstrate(venv, 4096, internal_force=True)
+    assert demo.force_rows.shape == (16_384, 3, 6) and demo.force_rows.dtype == np.float32
+    # the baseline distributes its load with almost no internal force
+    assert np.mean(np.linalg.norm(np.einsum("nkm,nm->nk", held.force_rows, held.actions),
+                                  axis=1)) < 0.01
+    errs = {}
+    for w in (0.0, 30.0):
+        th.manual_seed(0)
+        model = build_model(cfg, venv)
+        fit_mean(model, demo.obs, demo.actions, epochs=5, seed=0,
+                 force_rows=demo.force_rows, force_weight=w)
+        errs[w] = (mean_error(model, held.obs, held.actions),
+                   force_error(model, held.obs, held.actions, held.force_rows))
+    # held-out rows: the weighted fit's error has less internal force, the motion part alike
+    assert errs[30.0][1] < 0.7 * errs[0.0][1], errs
+    assert errs[30.0][0] < 1.5 * errs[0.0][0], errs
+    venv.close()
+
+
+def test_a_run_with_clone_internal_force_records_the_force_error(tmp_path):
+    cfg = parse_config(_torque_config(clone_baseline=2048, clone_internal_force=10.0))
+    res = train(cfg, runs_root=tmp_path, progress=False)
+    fit = json.loads((res.run_dir / "run.json").read_text())["clone"]
+    assert fit["internal_force_weight"] == 10.0
+    # an untrained mean near 0 errs by the baseline's action, which has almost no internal
+    # force; the figures are the held measure of the fit (the weighted test above)
+    assert 0.0 <= fit["force_error_before"] < 0.05 and 0.0 <= fit["force_error_after"] < 0.05
+    assert fit["mse_after"] < fit["mse_before"], fit

@@ -160,12 +160,13 @@ def test_search_spaces_give_valid_configs(algo):
     base = _base_for_algo(parse_config(_config()), algo)
     bounded = _config()
     bounded["wheelgym"].update(mean_bound=1.1, clone_baseline=4096, clone_rounds=2,
-                               clone_epochs=3)
+                               clone_epochs=3, clone_internal_force=5.0)
     wg = _base_for_algo(parse_config(bounded), algo)["wheelgym"]
     on_policy = algo in ("ppo", "a2c")  # the keys are kept for these, dropped for the others
     assert wg.get("mean_bound") == (1.1 if on_policy else None)
-    assert (wg.get("clone_baseline"), wg.get("clone_rounds"), wg.get("clone_epochs")) == (
-        (4096, 2, 3) if on_policy else (None, None, None))
+    assert (wg.get("clone_baseline"), wg.get("clone_rounds"), wg.get("clone_epochs"),
+            wg.get("clone_internal_force")) == (
+        (4096, 2, 3, 5.0) if on_policy else (None, None, None, None))
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
     for _ in range(8):
         trial = study.ask()

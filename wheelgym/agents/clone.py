@@ -28,8 +28,16 @@ fit                         Adam, learning rate 1e-3, batches of 1024, :data:`EP
                             with the config's seed (plus the round's index)
 loss                        mean squared error of the Gaussian mean (after ``mean_bound``'s
                             squash where set) to the baseline's action, plus that of the
-                            value estimate to the discounted return (``gamma`` of the model)
+                            value estimate to the discounted return (``gamma`` of the model);
+                            with ``clone_internal_force: w`` (torque mode, robots with an
+                            internal force) plus ``w`` times the squared internal force of
+                            the action error (:func:`internal_force_rows`)
 =========================== ===============================================================
+
+An action error in the null space of the motors (TW-6, paper (36)) moves nothing but is
+internal force; the plain least squares weighs it like an error that moves the robot, so a
+clone of the load distribution, which puts almost nothing there, fights itself by as much as
+it misses. ``clone_internal_force`` weighs that part of the error more.
 """
 
 from __future__ import annotations
@@ -52,18 +60,55 @@ CHUNK = 65_536
 
 class Demonstration(NamedTuple):
     """Rows of :func:`demonstrate`: ``(rows, obs_dim)``, ``(rows, action_dim)`` and ``(rows,)``
-    float32, and the episodes that ended during it and how many of them succeeded."""
+    float32, the episodes that ended during it and how many of them succeeded, and (asked
+    for with ``internal_force=True``) each row's :func:`internal_force_rows`,
+    ``(rows, m - 3, m)`` float32."""
 
     obs: np.ndarray
     actions: np.ndarray
     returns: np.ndarray
     episodes: int
     successes: int
+    force_rows: np.ndarray | None = None
+
+
+def internal_force_rows(core: Any) -> np.ndarray:
+    """Per env row, the matrix ``W (m - 3, m)`` with ``|W a| = |P tau| / |tau_max|`` for a
+    normalised torque action ``a`` (``tau = a * tau_max`` of the row, N·m): ``W = N^T
+    diag(tau_max) / |tau_max|``, ``N`` the orthonormal basis of null(J^T) at the row's steering
+    angles (TW-6, paper (36); :func:`wheelgym.control.distribution.null_space_basis`), each
+    row's own parameters. ``|tau_max|`` is the nominal robot's, as in the reward's
+    internal-force term (:func:`wheelgym.tasks.tasks.internal_force_scale`), so ``|W e|`` is
+    that term's measure of an action error ``e``. Shape ``(N, m - 3, m)``.
+
+    ``ValueError`` for a robot without an internal force or an action mode other than
+    ``torque``.
+    """
+    from wheelgym.control.distribution import null_space_basis
+    from wheelgym.tasks.tasks import internal_force_scale
+
+    spec = core.spec
+    if not spec.has_internal_force or core.action_mode != "torque":
+        raise ValueError(f"clone_internal_force: needs a robot with an internal force in "
+                         f"action mode 'torque', got {spec.name} in {core.action_mode!r}")
+    models: dict[int, Any] = {}
+    rows = core.params_rows
+    J = np.empty((core.num, core.HI.shape[1], 3))
+    for p in {id(p): p for p in rows}.values():
+        mdl = core.model if p is core.base_params else type(core.model)(p)
+        models[id(p)] = mdl
+    for i, p in enumerate(rows):
+        mdl = models[id(p)]
+        J[i] = mdl.jacobian(core.X[i, 6:9])  # psi_1..3 (the model's state layout, TW-1)
+    N = null_space_basis(J)  # (N, m, m - 3)
+    W = np.swapaxes(N, 1, 2) * core.HI[:, None, :]
+    return (W / internal_force_scale(core)).astype(np.float32)
 
 
 def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
                 stop: Callable[[], bool] | None = None,
-                actor: Callable[[np.ndarray], np.ndarray] | None = None) -> Demonstration:
+                actor: Callable[[np.ndarray], np.ndarray] | None = None,
+                internal_force: bool = False) -> Demonstration:
     """Label ``steps`` environment steps of ``venv`` with the analytic baseline's actions.
 
     The baseline drives, or ``actor`` (observations -> actions, e.g. the clone's deterministic
@@ -74,7 +119,9 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
     rows. The returns of the steps whose episode had not ended when the demonstration stopped
     are cut short there (their last ``1 / (1 - gamma)`` steps are within one horizon of the
     cut). ``stop`` (checked before each vector step) ends the demonstration early: fewer rows.
-    Raises ``ValueError`` when the envs have no baseline.
+    ``internal_force`` records each row's :func:`internal_force_rows` too (read before the
+    step, like the label). Raises ``ValueError`` when the envs have no baseline (or, with
+    ``internal_force``, no internal force).
     """
     from wheelgym.envs.baseline import baseline
 
@@ -82,8 +129,10 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
         policy = baseline(venv)  # it finds the env's core under SB3's wrappers
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
+    if internal_force:
+        internal_force_rows(policy.core)  # the error before the first step
     obs = venv.reset()
-    O, A, R, D = [], [], [], []
+    O, A, R, D, F = [], [], [], [], []
     episodes = successes = 0
     for _ in range(max(1, steps // venv.num_envs)):
         if stop is not None and O and stop():
@@ -91,6 +140,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
         a = np.asarray(policy.actions(), dtype=np.float32)  # the label, read before the step
         O.append(np.asarray(obs, dtype=np.float32).copy())
         A.append(a)
+        if internal_force:
+            F.append(internal_force_rows(policy.core))
         act = a if actor is None else np.asarray(actor(obs), dtype=np.float32)
         obs, r, done, infos = venv.step(act)  # rows that end are reset by the env; the
         # baseline reads each row's state (and replans a car-like row at its episode's first
@@ -102,7 +153,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
             successes += bool(infos[i].get("is_success", False))
     G = returns_to_go(np.array(R), np.array(D), gamma)
     return Demonstration(np.concatenate(O), np.concatenate(A),
-                         G.reshape(-1).astype(np.float32), episodes, successes)
+                         G.reshape(-1).astype(np.float32), episodes, successes,
+                         np.concatenate(F) if internal_force else None)
 
 
 def returns_to_go(rewards: np.ndarray, done: np.ndarray, gamma: float) -> np.ndarray:
@@ -118,10 +170,13 @@ def returns_to_go(rewards: np.ndarray, done: np.ndarray, gamma: float) -> np.nda
 
 def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
              returns: np.ndarray | None = None, *, epochs: int = EPOCHS,
-             seed: int = 0, stop: Callable[[], bool] | None = None) -> float:
+             seed: int = 0, stop: Callable[[], bool] | None = None,
+             force_rows: np.ndarray | None = None, force_weight: float = 0.0) -> float:
     """Fit ``model.policy``'s Gaussian mean to ``actions`` at ``obs`` (least squares), and its
     value network to ``returns`` where given (so that PPO's first advantages are the clone's,
-    not an untrained critic's noise).
+    not an untrained critic's noise). With ``force_rows`` (:func:`internal_force_rows` of each
+    row) the action loss is ``(|e|^2 + force_weight |W e|^2) / m`` per row, ``e`` the error of
+    the mean: the internal force of the error weighs ``force_weight`` more.
 
     Returns the mean squared action error over the last pass (over the batches it took when
     ``stop``, checked before each batch, ends the fit early; NaN before the first batch).
@@ -134,6 +189,8 @@ def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
     O = th.as_tensor(obs, device=policy.device)
     A = th.as_tensor(actions, device=policy.device)
     G = None if returns is None else th.as_tensor(returns, device=policy.device)
+    Wf = None if force_rows is None or not force_weight else \
+        th.as_tensor(force_rows, device=policy.device)
     gen = th.Generator().manual_seed(int(seed))
     mse = float("nan")
     policy.set_training_mode(True)
@@ -145,9 +202,13 @@ def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
                 break
             idx = perm[i:i + BATCH]
             mean = policy.get_distribution(O[idx]).distribution.mean
-            loss = ((mean - A[idx]) ** 2).mean()
+            err = mean - A[idx]
+            loss = (err ** 2).mean()
             total += float(loss.detach()) * len(idx)
             seen += len(idx)
+            if Wf is not None:  # |W e|^2 per row over the m action columns, as the MSE
+                wf = th.einsum("bkm,bm->bk", Wf[idx], err)
+                loss = loss + force_weight * (wf ** 2).sum(dim=1).mean() / err.shape[1]
             if G is not None:
                 loss = loss + ((policy.predict_values(O[idx]).flatten() - G[idx]) ** 2).mean()
             opt.zero_grad()
@@ -189,9 +250,29 @@ def value_error(model: Any, obs: np.ndarray, returns: np.ndarray) -> float:
     return total / max(len(returns), 1)
 
 
+def force_error(model: Any, obs: np.ndarray, actions: np.ndarray,
+                force_rows: np.ndarray) -> float:
+    """Mean over rows of ``|W e|`` (:func:`internal_force_rows`), ``e`` the error of
+    ``model.policy``'s Gaussian mean to ``actions``: the internal force of the error as a share
+    of ``|tau_max|``, the reward term's measure."""
+    import torch as th
+
+    policy = model.policy
+    total = 0.0
+    with th.no_grad():
+        for i in range(0, len(obs), CHUNK):
+            o = th.as_tensor(obs[i:i + CHUNK], device=policy.device)
+            e = policy.get_distribution(o).distribution.mean - th.as_tensor(
+                actions[i:i + CHUNK], device=policy.device)
+            w = th.as_tensor(force_rows[i:i + CHUNK], device=policy.device)
+            total += float(th.linalg.vector_norm(th.einsum("bkm,bm->bk", w, e), dim=1).sum())
+    return total / max(len(obs), 1)
+
+
 def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
-                   epochs: int | None = None) -> dict[str, Any]:
+                   epochs: int | None = None,
+                   internal_force: float | None = None) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -204,7 +285,10 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     (``mse_after``), the value error on the baseline's rows before and on all rows after
     (``value_mse_before``, ``value_mse_after``) and, with ``rounds > 1``, per round who drove,
     its episodes, the share of them that succeeded, and (from the second) the clone's action
-    error on the new rows before it refits (``rounds``).
+    error on the new rows before it refits (``rounds``). ``internal_force`` (the config's
+    ``clone_internal_force``) weighs the internal force of the action error in the fit
+    (:func:`fit_mean`); the figures then add ``internal_force_weight`` and the mean
+    :func:`force_error` before and after (``force_error_before``, ``force_error_after``).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -212,29 +296,39 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     venv = model.get_env()
     gamma = float(model.gamma)
     per = max(1, steps // rounds)
-    obs, actions, returns, _, _ = demo = demonstrate(venv, per, gamma=gamma, stop=stop)
+    forces = bool(internal_force)
+    demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces)
+    obs, actions, returns, rows = demo.obs, demo.actions, demo.returns, demo.force_rows
     log = [{"driver": "baseline", **_episodes(demo)}]
     before = mean_error(model, obs, actions)
+    f_before = force_error(model, obs, actions, rows) if forces else None
     v_before = value_error(model, obs, returns)
     after = float("nan")
     for k in range(rounds):
         if k:  # all rows so far, and the new ones
-            demo = demonstrate(venv, per, gamma=gamma, stop=stop,
+            demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
                                actor=lambda o: model.predict(o, deterministic=True)[0])
             log.append({"driver": "clone", **_episodes(demo),
                         "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
             obs = np.concatenate([obs, demo.obs])
             actions = np.concatenate([actions, demo.actions])
             returns = np.concatenate([returns, demo.returns])
+            if forces:
+                rows = np.concatenate([rows, demo.force_rows])
         if stop is not None and stop():
             break
         after = fit_mean(model, obs, actions, returns, epochs=epochs or EPOCHS, seed=seed + k,
-                         stop=stop)
+                         stop=stop, force_rows=rows,
+                         force_weight=float(internal_force or 0.0))
     fit: dict[str, Any] = {"steps": int(len(obs)), "epochs": epochs or EPOCHS,
                            "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,
                            "value_mse_before": v_before,
                            "value_mse_after": value_error(model, obs, returns)}
+    if forces:
+        fit.update(internal_force_weight=float(internal_force),
+                   force_error_before=f_before,
+                   force_error_after=force_error(model, obs, actions, rows))
     if rounds > 1:
         fit["rounds"] = log
     if stop is not None and stop():

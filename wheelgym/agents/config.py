@@ -524,6 +524,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "clone_baseline": _int(1),
     "clone_rounds": _int(1),
     "clone_epochs": _int(1),
+    "clone_internal_force": _float(lo=0.0),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -540,6 +541,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "clone_baseline": None,
     "clone_rounds": None,
     "clone_epochs": None,
+    "clone_internal_force": None,
 }
 
 
@@ -581,6 +583,9 @@ class TrainConfig:
     clone_epochs   ``None`` (:data:`wheelgym.agents.clone.EPOCHS`, 10) or ``E >= 1``: passes of
                    each round's fit over the rows so far (the fit is most of a DAgger run's
                    time; later rounds start from the last fit)
+    clone_internal_force ``None`` or ``w >= 0``: the fit weighs the internal force of the
+                   action error (its null-space part, TW-6) ``w`` more than the plain squared
+                   error (torque mode on a robot with an internal force; ThreeWheel)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -605,6 +610,7 @@ class TrainConfig:
     clone_baseline: int | None = None
     clone_rounds: int | None = None
     clone_epochs: int | None = None
+    clone_internal_force: float | None = None
     source: str = "<dict>"
 
     @property
@@ -670,6 +676,8 @@ class TrainConfig:
             wg["clone_rounds"] = self.clone_rounds
         if self.clone_epochs is not None:
             wg["clone_epochs"] = self.clone_epochs
+        if self.clone_internal_force is not None:
+            wg["clone_internal_force"] = self.clone_internal_force
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -770,7 +778,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
                          f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
                          f"not {algo!r}")
-    for key in ("clone_rounds", "clone_epochs"):
+    for key in ("clone_rounds", "clone_epochs", "clone_internal_force"):
         if wg[key] is not None and wg["clone_baseline"] is None:
             raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs clone_baseline "
                              f"(the steps it works on)")
@@ -804,6 +812,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         clone_baseline=wg["clone_baseline"],
         clone_rounds=wg["clone_rounds"],
         clone_epochs=wg["clone_epochs"],
+        clone_internal_force=wg["clone_internal_force"],
         source=source,
     )
 

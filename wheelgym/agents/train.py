@@ -611,7 +611,8 @@ def _clone(config: TrainConfig, model, run_dir: Path, info: dict) -> TrainResult
             fit = clone_baseline(model, config.clone_baseline, seed=config.seed,
                                  stop=lambda: stop.requested,
                                  rounds=config.clone_rounds or 1,
-                                 epochs=config.clone_epochs)
+                                 epochs=config.clone_epochs,
+                                 internal_force=config.clone_internal_force)
         except KeyboardInterrupt:  # a second Ctrl-C: stop at once, still saving
             fit = {"interrupted": True}
         except BaseException as e:  # (the caller releases the lock)

@@ -184,6 +184,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         data[WHEELGYM_BLOCK].pop("clone_baseline", None)
         data[WHEELGYM_BLOCK].pop("clone_rounds", None)
         data[WHEELGYM_BLOCK].pop("clone_epochs", None)
+        data[WHEELGYM_BLOCK].pop("clone_internal_force", None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 
