@@ -1,7 +1,7 @@
 """Clone the analytic baseline into a config's policy network, then let PPO fine-tune it.
 
 Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1] [--epochs 10]
-[--finetune 1000000] [--episodes 50] [--out runs/clone]``.
+[--internal-force W] [--finetune 1000000] [--learning-rate LR] [--episodes 50] [--out runs/clone]``.
 
 A diagnostic of the results that start from the baseline (README, results section; written
 for ``navigate``, it takes any PPO config with ``normalize``): the clone alone and the clone
@@ -88,23 +88,36 @@ def main() -> None:
                     help="DAgger rounds over the --steps (clone_rounds; 1: the baseline drives)")
     ap.add_argument("--epochs", type=int, default=None,
                     help="passes of each round's fit (clone_epochs; default clone.EPOCHS)")
+    ap.add_argument("--internal-force", type=float, default=None, metavar="W",
+                    help="the fit's weight on the internal force of the action error "
+                         "(default: the config's clone_internal_force)")
     ap.add_argument("--finetune", type=int, default=1_000_000,
                     help="PPO steps after cloning (0: none)")
+    ap.add_argument("--learning-rate", type=float, default=None, metavar="LR",
+                    help="PPO's learning rate for the fine-tuning (default: the config's)")
     ap.add_argument("--episodes", type=int, default=50)
     ap.add_argument("--out", type=Path, default=Path("runs/clone"))
     a = ap.parse_args()
     th.set_num_threads(1)
     config = load_config(a.config)
+    if a.learning_rate is not None:
+        hp = {**config.hyperparams, "learning_rate": a.learning_rate}
+        config = config.replace(hyperparams=hp)
     if config.algo != "ppo" or config.normalize is None:
         raise SystemExit(f"{a.config}: needs a PPO config with normalize on")
     gamma = float(config.hyperparams.get("gamma", 0.99))
     venv = wrap_normalize(make_train_env(config), config)
     model = build_model(config, venv)
     t0 = time.perf_counter()
-    fit = clone_baseline(model, a.steps, seed=config.seed, rounds=a.rounds, epochs=a.epochs)
+    w = config.clone_internal_force if a.internal_force is None else a.internal_force
+    fit = clone_baseline(model, a.steps, seed=config.seed, rounds=a.rounds, epochs=a.epochs,
+                         internal_force=w)
     print(f"{a.config.name}: cloned {fit['steps']} baseline-labelled steps in {a.rounds} "
           f"round(s), {time.perf_counter() - t0:.0f} s (mean squared action error "
           f"{fit['mse_before']:.2g} -> {fit['mse_after']:.2g})")
+    if "force_error_after" in fit:
+        print(f"  internal-force weight {w:g}: internal force of the action error "
+              f"{fit['force_error_before']:.2g} -> {fit['force_error_after']:.2g} of |tau_max|")
     for k, r in enumerate(fit.get("rounds", [])):
         print(f"  round {k + 1}: the {r['driver']} drove {r['episodes']} episodes, "
               f"{r['success']:.0%} success")
