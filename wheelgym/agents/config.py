@@ -87,6 +87,11 @@ DEVICES: tuple[str, ...] = ("cpu", "cuda", "auto")
 #: The on-policy algorithms (rollouts of ``n_steps``; a Gaussian policy with a free mean).
 ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
 
+#: The ``wheelgym`` block's keys of the clone (:mod:`wheelgym.agents.clone`); the first starts
+#: it, the others need it. Only for :data:`ON_POLICY` algorithms.
+CLONE_KEYS: tuple[str, ...] = ("clone_baseline", "clone_rounds", "clone_epochs",
+                               "clone_internal_force")
+
 #: Largest accepted seed (NumPy's legacy seeding and SB3's ``set_random_seed`` need < 2**32).
 MAX_SEED = 2**32 - 1
 
@@ -778,7 +783,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
                          f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
                          f"not {algo!r}")
-    for key in ("clone_rounds", "clone_epochs", "clone_internal_force"):
+    for key in CLONE_KEYS[1:]:
         if wg[key] is not None and wg["clone_baseline"] is None:
             raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs clone_baseline "
                              f"(the steps it works on)")

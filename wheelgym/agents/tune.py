@@ -75,6 +75,7 @@ import yaml
 
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
+    CLONE_KEYS,
     ON_POLICY,
     WHEELGYM_BLOCK,
     TrainConfig,
@@ -180,11 +181,8 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
     if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
-        data[WHEELGYM_BLOCK].pop("mean_bound", None)
-        data[WHEELGYM_BLOCK].pop("clone_baseline", None)
-        data[WHEELGYM_BLOCK].pop("clone_rounds", None)
-        data[WHEELGYM_BLOCK].pop("clone_epochs", None)
-        data[WHEELGYM_BLOCK].pop("clone_internal_force", None)
+        for key in ("mean_bound", *CLONE_KEYS):
+            data[WHEELGYM_BLOCK].pop(key, None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
 
