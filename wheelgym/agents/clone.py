@@ -1,4 +1,5 @@
-"""Start a PPO/A2C policy from the analytic baseline: behaviour cloning before training.
+"""Start a PPO/A2C policy from the analytic baseline (behaviour cloning before training), and
+take the internal force out of a trained one (after).
 
 The config key ``clone_baseline: N`` (``wheelgym`` block) makes :func:`wheelgym.agents.train.train`
 run the analytic baseline (:class:`wheelgym.envs.baseline.BaselinePolicy`) on the training envs for
@@ -38,6 +39,14 @@ An action error in the null space of the motors (TW-6, paper (36)) moves nothing
 internal force; the plain least squares weighs it like an error that moves the robot, so a
 clone of the load distribution, which puts almost nothing there, fights itself by as much as
 it misses. ``clone_internal_force`` weighs that part of the error more.
+
+The config key ``distill_internal_force: N`` works the other way round, after training
+(:func:`distill_internal_force`): the trained policy is its own teacher, its actions less their
+internal force (:func:`without_internal_force`, the same generalized force ``J^T tau``) the
+labels, the states those the policy reaches (``N`` steps in ``distill_rounds`` DAgger rounds).
+PPO leaves internal force that its reward pays for: the internal-force term (weight 0.2) cost
+the ThreeWheel track-torque agent trained from scratch about 2.3 of its return of -6.4 (the
+baseline's: -0.3) after 500k steps, and the task's other terms do not depend on it at all.
 """
 
 from __future__ import annotations
@@ -54,6 +63,16 @@ EPOCHS = 10
 #: Adam's learning rate and the batch size of the fit.
 LR = 1e-3
 BATCH = 1024
+#: Adam's learning rate of :func:`distill_internal_force`'s fits, a tenth of the clone's: the fit
+#: takes the null-space part out of a trained policy without first unlearning its motion. A
+#: prototype on the shipped ThreeWheel track-torque agent (200k rows in 2 rounds, 20 episodes):
+#: at w = 10000, 1e-3 left 15% success of 100%, 1e-4 45%; at w = 1000 and 1e-4, 95%.
+DISTILL_LR = 1e-4
+#: Default rounds and internal-force weight of :func:`distill_internal_force`. The same
+#: prototype at w = 1000: 4 rounds of 100k rows left 3.8x the baseline's internal force (95%
+#: success), 6 rounds 1.7x (100%); w = 3000 in 4 rounds 45% success.
+DISTILL_ROUNDS = 6
+DISTILL_WEIGHT = 1000.0
 #: Rows per forward pass when scoring a fit (bounds the memory of a 1M-row demonstration).
 CHUNK = 65_536
 
@@ -84,12 +103,35 @@ def internal_force_rows(core: Any) -> np.ndarray:
     ``ValueError`` for a robot without an internal force or an action mode other than
     ``torque``.
     """
-    from wheelgym.control.distribution import null_space_basis
     from wheelgym.tasks.tasks import internal_force_scale
+
+    N, tau_max = _null_space(core, "clone_internal_force")
+    W = np.swapaxes(N, 1, 2) * tau_max[:, None, :]
+    return (W / internal_force_scale(core)).astype(np.float32)
+
+
+def without_internal_force(core: Any, actions: np.ndarray) -> np.ndarray:
+    """Normalised torque actions ``(N, m)`` of ``core``'s rows less their internal force.
+
+    ``tau = a * tau_max`` (N·m) loses its null-space part: ``tau - N N^T tau`` (TW-6, paper
+    (36); ``N`` as in :func:`internal_force_rows`), the minimum-norm torque with the same
+    generalized force ``J^T tau``, so the same motion. Back in normalised units and clipped to
+    the action box ``[-1, 1]`` (a clipped row keeps some internal force). float32.
+    """
+    N, tau_max = _null_space(core, "distill_internal_force")
+    tau = np.asarray(actions, dtype=np.float64).reshape(core.num, -1) * tau_max
+    tau -= np.einsum("nmk,nk->nm", N, np.einsum("nmk,nm->nk", N, tau))
+    return np.clip(tau / tau_max, -1.0, 1.0).astype(np.float32)
+
+
+def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of ``core``: the orthonormal basis ``N (m, m - 3)`` of null(J^T) at its steering
+    angles (TW-6) and the row's torque limits ``tau_max (m,)`` (N·m)."""
+    from wheelgym.control.distribution import null_space_basis
 
     spec = core.spec
     if not spec.has_internal_force or core.action_mode != "torque":
-        raise ValueError(f"clone_internal_force: needs a robot with an internal force in "
+        raise ValueError(f"{what}: needs a robot with an internal force in "
                          f"action mode 'torque', got {spec.name} in {core.action_mode!r}")
     models: dict[int, Any] = {}
     rows = core.params_rows
@@ -100,9 +142,7 @@ def internal_force_rows(core: Any) -> np.ndarray:
     for i, p in enumerate(rows):
         mdl = models[id(p)]
         J[i] = mdl.jacobian(core.X[i, 6:9])  # psi_1..3 (the model's state layout, TW-1)
-    N = null_space_basis(J)  # (N, m, m - 3)
-    W = np.swapaxes(N, 1, 2) * core.HI[:, None, :]
-    return (W / internal_force_scale(core)).astype(np.float32)
+    return null_space_basis(J), np.asarray(core.HI, dtype=np.float64)  # HI: each row's tau_max
 
 
 def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
@@ -171,12 +211,14 @@ def returns_to_go(rewards: np.ndarray, done: np.ndarray, gamma: float) -> np.nda
 def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
              returns: np.ndarray | None = None, *, epochs: int = EPOCHS,
              seed: int = 0, stop: Callable[[], bool] | None = None,
-             force_rows: np.ndarray | None = None, force_weight: float = 0.0) -> float:
+             force_rows: np.ndarray | None = None, force_weight: float = 0.0,
+             lr: float = LR) -> float:
     """Fit ``model.policy``'s Gaussian mean to ``actions`` at ``obs`` (least squares), and its
     value network to ``returns`` where given (so that PPO's first advantages are the clone's,
     not an untrained critic's noise). With ``force_rows`` (:func:`internal_force_rows` of each
     row) the action loss is ``(|e|^2 + force_weight |W e|^2) / m`` per row, ``e`` the error of
-    the mean: the internal force of the error weighs ``force_weight`` more.
+    the mean: the internal force of the error weighs ``force_weight`` more. ``lr``: Adam's
+    learning rate.
 
     Returns the mean squared action error over the last pass (over the batches it took when
     ``stop``, checked before each batch, ends the fit early; NaN before the first batch).
@@ -185,7 +227,7 @@ def fit_mean(model: Any, obs: np.ndarray, actions: np.ndarray,
 
     policy = model.policy
     params = [p for n, p in policy.named_parameters() if n != "log_std"]
-    opt = th.optim.Adam(params, lr=LR)
+    opt = th.optim.Adam(params, lr=lr)
     O = th.as_tensor(obs, device=policy.device)
     A = th.as_tensor(actions, device=policy.device)
     G = None if returns is None else th.as_tensor(returns, device=policy.device)
@@ -331,6 +373,95 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
                    force_error_after=force_error(model, obs, actions, rows))
     if rounds > 1:
         fit["rounds"] = log
+    if stop is not None and stop():
+        fit["interrupted"] = True
+    return fit
+
+
+def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
+                           weight: float = DISTILL_WEIGHT, epochs: int | None = None,
+                           seed: int = 0, stop: Callable[[], bool] | None = None) -> dict[str, Any]:
+    """Take the internal force out of a trained policy's Gaussian mean, keeping its motion.
+
+    The teacher is the policy as trained (a frozen copy), its deterministic action less its
+    internal force (:func:`without_internal_force`: the same ``J^T tau``, no null-space part).
+    ``steps`` rows in ``rounds`` rounds: the policy as fitted so far drives ``model``'s training
+    envs (its deterministic action), the teacher labels each state, and :func:`fit_mean`
+    refits the mean on all rows so far (``epochs`` passes, default :data:`EPOCHS`; Adam at
+    :data:`DISTILL_LR`; internal-force weight ``weight``). The student drives from the first
+    round on, so the rows are the states it reaches (DAgger). ``VecNormalize`` statistics are
+    frozen meanwhile (the network's inputs keep their meaning) and its ``training`` flag
+    restored after; the value network is left as it is.
+
+    Returns the figures for ``run.json``: ``steps`` (rows), ``epochs``, ``weight``, per round
+    (``rounds``) the driver's episodes and success share and its mean internal force on the
+    new rows before the refit (``force_before``, as :func:`force_error`: a share of
+    ``|tau_max|``), and after the last fit over all rows: ``force_after`` (the student's) and
+    ``mse_after`` (its squared distance to the labels). ``stop`` ends it early (figures
+    then say ``interrupted: True``). ``ValueError`` for a robot without an internal force or an
+    action mode other than ``torque``.
+    """
+    import torch as th
+
+    from wheelgym.envs.baseline import baseline
+
+    venv = model.get_env()
+    core = baseline(venv).core  # the envs' core, found under SB3's wrappers
+    _null_space(core, "distill_internal_force")  # the error before the first step
+    policy = model.policy  # the teacher: a frozen copy (a deepcopy trips on torch's non-leaves)
+    teacher = type(policy)(**policy._get_constructor_parameters()).to(policy.device)
+    teacher.load_state_dict(policy.state_dict())
+    teacher.set_training_mode(False)
+    norm = model.get_vec_normalize_env()
+    was_training = None if norm is None else norm.training
+    if norm is not None:
+        norm.training = False
+    per = max(1, steps // rounds) // venv.num_envs
+    obs = venv.reset()
+    O: list[np.ndarray] = []
+    A: list[np.ndarray] = []
+    F: list[np.ndarray] = []
+    log: list[dict[str, Any]] = []
+    after = float("nan")
+    try:
+        for k in range(rounds):
+            start = len(O)
+            episodes = successes = 0
+            for _ in range(max(1, per)):
+                if stop is not None and O and stop():
+                    break
+                with th.no_grad():
+                    label = teacher.predict(obs, deterministic=True)[0]
+                O.append(np.asarray(obs, dtype=np.float32).copy())
+                A.append(without_internal_force(core, label))
+                F.append(internal_force_rows(core))
+                act = model.predict(obs, deterministic=True)[0]
+                obs, _, done, infos = venv.step(act)
+                for i in np.flatnonzero(done):
+                    episodes += 1
+                    successes += bool(infos[i].get("is_success", False))
+            new = slice(start, len(O))
+            log.append({"episodes": episodes,
+                        "success": round(successes / episodes, 4) if episodes else None,
+                        "force_before": force_error(model, np.concatenate(O[new]),
+                                                    np.concatenate(A[new]),
+                                                    np.concatenate(F[new]))
+                        if len(O) > start else None})
+            if stop is not None and stop():
+                break
+            after = fit_mean(model, np.concatenate(O), np.concatenate(A),
+                             epochs=epochs or EPOCHS, seed=seed + k, stop=stop,
+                             force_rows=np.concatenate(F), force_weight=float(weight),
+                             lr=DISTILL_LR)
+    finally:
+        if norm is not None:
+            norm.training = was_training
+    fit: dict[str, Any] = {"steps": int(sum(len(o) for o in O)), "epochs": epochs or EPOCHS,
+                           "weight": float(weight), "rounds": log,
+                           "mse_after": None if np.isnan(after) else after}
+    if O:
+        fit["force_after"] = force_error(model, np.concatenate(O), np.concatenate(A),
+                                         np.concatenate(F))
     if stop is not None and stop():
         fit["interrupted"] = True
     return fit

@@ -92,6 +92,11 @@ ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
 CLONE_KEYS: tuple[str, ...] = ("clone_baseline", "clone_rounds", "clone_epochs",
                                "clone_internal_force")
 
+#: The ``wheelgym`` block's keys of the internal-force distillation after training
+#: (:func:`wheelgym.agents.clone.distill_internal_force`); the first starts it, the others need
+#: it. Only for :data:`ON_POLICY` algorithms.
+DISTILL_KEYS: tuple[str, ...] = ("distill_internal_force", "distill_rounds", "distill_weight")
+
 #: Largest accepted seed (NumPy's legacy seeding and SB3's ``set_random_seed`` need < 2**32).
 MAX_SEED = 2**32 - 1
 
@@ -530,6 +535,9 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "clone_rounds": _int(1),
     "clone_epochs": _int(1),
     "clone_internal_force": _float(lo=0.0),
+    "distill_internal_force": _int(1),
+    "distill_rounds": _int(1),
+    "distill_weight": _float(lo=0.0),
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -547,6 +555,9 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "clone_rounds": None,
     "clone_epochs": None,
     "clone_internal_force": None,
+    "distill_internal_force": None,
+    "distill_rounds": None,
+    "distill_weight": None,
 }
 
 
@@ -591,6 +602,15 @@ class TrainConfig:
     clone_internal_force ``None`` or ``w >= 0``: the fit weighs the internal force of the
                    action error (its null-space part, TW-6) ``w`` more than the plain squared
                    error (torque mode on a robot with an internal force; ThreeWheel)
+    distill_internal_force ``None`` or ``N >= 1``: after PPO/A2C trains, ``N`` steps in which
+                   the policy drives and its mean is refitted to its own actions less their
+                   internal force (the same motion; torque mode on a robot with an internal
+                   force; :func:`wheelgym.agents.clone.distill_internal_force`; not counted in
+                   ``n_timesteps``)
+    distill_rounds ``None`` (:data:`wheelgym.agents.clone.DISTILL_ROUNDS`, 6) or ``K >= 1``:
+                   the ``N`` steps in ``K`` rounds, each refitting on all rows so far
+    distill_weight ``None`` (:data:`wheelgym.agents.clone.DISTILL_WEIGHT`, 1000) or
+                   ``w >= 0``: the weight of the internal force of the fit's error
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -616,6 +636,9 @@ class TrainConfig:
     clone_rounds: int | None = None
     clone_epochs: int | None = None
     clone_internal_force: float | None = None
+    distill_internal_force: int | None = None
+    distill_rounds: int | None = None
+    distill_weight: float | None = None
     source: str = "<dict>"
 
     @property
@@ -683,6 +706,9 @@ class TrainConfig:
             wg["clone_epochs"] = self.clone_epochs
         if self.clone_internal_force is not None:
             wg["clone_internal_force"] = self.clone_internal_force
+        for key in DISTILL_KEYS:  # absent by default, like the clone's keys
+            if getattr(self, key) is not None:
+                wg[key] = getattr(self, key)
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
 
     def dump(self, path: str | Path) -> None:
@@ -787,6 +813,14 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         if wg[key] is not None and wg["clone_baseline"] is None:
             raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs clone_baseline "
                              f"(the steps it works on)")
+    if wg["distill_internal_force"] is not None and algo not in ON_POLICY:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: distill_internal_force is for "
+                         f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
+                         f"not {algo!r}")
+    for key in DISTILL_KEYS[1:]:
+        if wg[key] is not None and wg["distill_internal_force"] is None:
+            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs distill_internal_force "
+                             f"(the steps it works on)")
 
     normalize = block.pop("normalize", False)
     noise = None
@@ -818,6 +852,9 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         clone_rounds=wg["clone_rounds"],
         clone_epochs=wg["clone_epochs"],
         clone_internal_force=wg["clone_internal_force"],
+        distill_internal_force=wg["distill_internal_force"],
+        distill_rounds=wg["distill_rounds"],
+        distill_weight=wg["distill_weight"],
         source=source,
     )
 

@@ -22,15 +22,18 @@ run.lock               present while a process trains in the folder (holds its p
 ====================== ======================================================================
 
 ``status`` in run.json: ``cloning`` while ``clone_baseline`` demonstrates and fits;
-``running`` while training; ``finished`` when the target number of steps
-was reached; ``interrupted`` after Ctrl-C (SIGINT); ``stopped`` when the caller's ``on_eval``
-hook ended training early (a pruned tuning trial); ``failed`` when training raised (``error``
-holds the exception's type and message; the exception propagates). A process that died without
-a word (SIGKILL, power loss) leaves ``running`` (or ``cloning``).
+``running`` while training; ``distilling`` while ``distill_internal_force`` refits the trained
+policy (after the last step; its figures go to run.json's ``distill``); ``finished`` when the
+target number of steps was reached (and any distillation done); ``interrupted`` after Ctrl-C
+(SIGINT); ``stopped`` when the caller's ``on_eval`` hook ended training early (a pruned tuning
+trial); ``failed`` when training raised (``error`` holds the exception's type and message; the
+exception propagates). A process that died without a word (SIGKILL, power loss) leaves
+``running`` (or ``cloning``, ``distilling``).
 
 Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
 Ctrl-C stops at once, still saving); during ``clone_baseline`` it ends the demonstration or fit
-at the next step or batch and saves the partly fitted model (``resume`` clones again). ``subproc``
+at the next step or batch and saves the partly fitted model (``resume`` clones again); so during
+``distill_internal_force`` (``resume`` distils again). ``subproc``
 vector-env workers ignore SIGINT (they share the terminal's process group), so the main process
 stops them cleanly. ``resume`` continues a run in
 its own folder from its last saved model or checkpoint.
@@ -483,7 +486,12 @@ def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool
                     tb_log_name="tb",
                 )
             done = model.num_timesteps >= total
-            status = ("finished" if done else "interrupted" if stop.requested else
+            pending = done and _needs_distill(config, model, info)
+            if pending and not stop.requested:
+                _distill(config, model, run_dir, info, stop)
+                pending = bool(info["distill"].get("interrupted"))
+            status = ("interrupted" if pending else "finished" if done else
+                      "interrupted" if stop.requested else
                       "stopped" if on_eval is not None else "finished")
         except KeyboardInterrupt:
             status = "interrupted"
@@ -628,6 +636,35 @@ def _clone(config: TrainConfig, model, run_dir: Path, info: dict) -> TrainResult
     info["target_timesteps"] = config.n_timesteps
     _finish(model, run_dir, info, "interrupted", wall)
     return TrainResult(run_dir, "interrupted", int(model.num_timesteps), wall)
+
+
+def _needs_distill(config: TrainConfig, model, info: dict) -> bool:
+    """``distill_internal_force`` is set and has not run to its end at these steps."""
+    if config.distill_internal_force is None:
+        return False
+    last = info.get("distill")
+    return (last is None or bool(last.get("interrupted"))
+            or last.get("timesteps") != int(model.num_timesteps))
+
+
+def _distill(config: TrainConfig, model, run_dir: Path, info: dict, stop) -> None:
+    """``distill_internal_force`` after training: the figures go to ``info["distill"]``
+    (``interrupted`` when a Ctrl-C ended it early; :func:`resume` distils again)."""
+    from wheelgym.agents.clone import DISTILL_ROUNDS, DISTILL_WEIGHT, distill_internal_force
+
+    t0 = time.perf_counter()
+    info.update(status="distilling")
+    _write_json(run_dir / "run.json", info)
+    weight = DISTILL_WEIGHT if config.distill_weight is None else config.distill_weight
+    try:
+        fit = distill_internal_force(model, config.distill_internal_force,
+                                     rounds=config.distill_rounds or DISTILL_ROUNDS,
+                                     weight=weight, seed=config.seed,
+                                     stop=lambda: stop.requested)
+    except KeyboardInterrupt:  # a second Ctrl-C: stop at once (the caller saves)
+        fit = {"interrupted": True}
+    info["distill"] = {**fit, "timesteps": int(model.num_timesteps),
+                       "wall_s": round(time.perf_counter() - t0, 2)}
 
 
 def check_reward_schedule(config: TrainConfig, venv) -> None:

@@ -76,6 +76,7 @@ import yaml
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
     CLONE_KEYS,
+    DISTILL_KEYS,
     ON_POLICY,
     WHEELGYM_BLOCK,
     TrainConfig,
@@ -181,7 +182,7 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
     if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
-        for key in ("mean_bound", *CLONE_KEYS):
+        for key in ("mean_bound", *CLONE_KEYS, *DISTILL_KEYS):
             data[WHEELGYM_BLOCK].pop(key, None)
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
