@@ -55,7 +55,9 @@ def _body(path: Path) -> str:
 
 
 def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path, capsys):
-    cfg = _write(tmp_path, _config())
+    data = _config()  # the distillation (torque mode only) would fail these velocity trials
+    data["wheelgym"].update(distill_internal_force=4096, distill_rounds=2)
+    cfg = _write(tmp_path, data)
     root = tmp_path / "runs"
     rc = main(["tune", str(cfg), "--trials", "2", "--timesteps", "512", "--evals", "2",
                "--eval-episodes", "1", "--runs-root", str(root), "--study-name", "tiny"])
@@ -69,6 +71,8 @@ def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path,
     # The config's own budget, seed and evaluation settings; tuned keys from the search space.
     assert tuned.n_timesteps == 100_000 and tuned.seed == 0 and tuned.eval_freq == 20_000
     assert tuned.hyperparams["n_epochs"] in SEARCH_SPACES["ppo"]["n_epochs"][1]
+    # trials train without the distillation after training; the written config keeps it
+    assert (tuned.distill_internal_force, tuned.distill_rounds) == (4096, 2)
 
     study = optuna.load_study(study_name="tiny", storage=f"sqlite:///{root / 'tiny' / 'study.db'}")
     first = study.trials[0]
@@ -78,6 +82,7 @@ def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path,
     assert [t.user_attrs["seed"] for t in study.trials] == [0, 1]
     for t in study.trials:
         assert Path(t.user_attrs["run_dir"]).parent == root / "tiny"
+        assert "distill_internal_force" not in t.user_attrs["config"]["wheelgym"]
 
     exported = tmp_path / "exported.yml"
     rc = main(["tune", "--export", "tiny", "--storage", f"sqlite:///{root / 'tiny' / 'study.db'}",
@@ -160,10 +165,13 @@ def test_search_spaces_give_valid_configs(algo):
     base = _base_for_algo(parse_config(_config()), algo)
     bounded = _config()
     bounded["wheelgym"].update(mean_bound=1.1, clone_baseline=4096, clone_rounds=2,
-                               clone_epochs=3, clone_internal_force=5.0)
+                               clone_epochs=3, clone_internal_force=5.0,
+                               distill_internal_force=2048, distill_weight=10.0)
     wg = _base_for_algo(parse_config(bounded), algo)["wheelgym"]
     on_policy = algo in ("ppo", "a2c")  # the keys are kept for these, dropped for the others
     assert wg.get("mean_bound") == (1.1 if on_policy else None)
+    assert (wg.get("distill_internal_force"), wg.get("distill_weight")) == (
+        (2048, 10.0) if on_policy else (None, None))
     assert (wg.get("clone_baseline"), wg.get("clone_rounds"), wg.get("clone_epochs"),
             wg.get("clone_internal_force")) == (
         (4096, 2, 3, 5.0) if on_policy else (None, None, None, None))

@@ -28,7 +28,9 @@ is seeded with the worker too, so that workers started together draw different t
 At the end the best trial's hyperparameters are written as a config in the RL Zoo layout
 (``<runs_root>/<study>/best.yml`` or ``out``): the config with the tuned keys, its own
 ``n_timesteps``, seed and evaluation settings, and a comment at the top naming the study, its
-trials and the date. :func:`export_best` writes it for an existing study at any time.
+trials and the date. :func:`export_best` writes it for an existing study at any time. Trials
+train without the config's ``distill_internal_force`` keys (a refit after the last step, which
+none of the evaluations a trial reports sees); the written config keeps them.
 
 Search spaces (:data:`SEARCH_SPACES`; ``log``: log-uniform, ``float``: uniform, ``cat``: one of):
 
@@ -360,7 +362,7 @@ def _best_config_text(study) -> str:
     env_id = next(k for k in data if k != WHEELGYM_BLOCK)
     base_env = next(k for k in base if k != WHEELGYM_BLOCK)
     data[env_id]["n_timesteps"] = base[base_env]["n_timesteps"]
-    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq"):
+    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq", *DISTILL_KEYS):
         if key in base[WHEELGYM_BLOCK]:
             data[WHEELGYM_BLOCK][key] = base[WHEELGYM_BLOCK][key]
     config = parse_config(data, source=f"study {study.study_name}")
@@ -580,6 +582,8 @@ def tune(
     def objective(trial: optuna.Trial) -> float:
         params = sample_params(trial, algo)
         data = apply_params(base, algo, params, steps)
+        for key in DISTILL_KEYS:  # after training, unseen by the evaluations the trial reports
+            data[WHEELGYM_BLOCK].pop(key, None)
         env_id = next(k for k in data if k != WHEELGYM_BLOCK)
         data[env_id]["n_timesteps"] = steps
         data[WHEELGYM_BLOCK].update(seed=seed + trial.number, eval_freq=eval_freq,
