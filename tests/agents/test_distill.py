@@ -17,6 +17,7 @@ from tests.agents.test_agents_train import (  # noqa: E402
     tiny_sac_config,
     train_and_interrupt,
 )
+from tests.agents.test_clone import _torque_config  # noqa: E402
 from wheelgym.agents.benchmark import config_digest  # noqa: E402
 from wheelgym.agents.clone import (  # noqa: E402
     demonstrate,
@@ -28,16 +29,6 @@ from wheelgym.agents.clone import (  # noqa: E402
 from wheelgym.agents.common import build_model, make_train_env, wrap_normalize  # noqa: E402
 from wheelgym.agents.config import parse_config  # noqa: E402
 from wheelgym.agents.train import resume, train  # noqa: E402
-
-TORQUE_NAV = {"task": "navigate", "action_mode": "torque"}
-
-
-def _torque_config(**wg):
-    data = tiny_config(**wg)
-    data["wheelgym"]["env_kwargs"] = dict(TORQUE_NAV)
-    data["wheelgym"]["vec_env"] = "native"
-    data["wheelgym/ThreeWheel-v0"]["policy_kwargs"] = {"net_arch": [64, 64]}
-    return data
 
 
 def _core(venv):

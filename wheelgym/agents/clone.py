@@ -63,14 +63,13 @@ EPOCHS = 10
 #: Adam's learning rate and the batch size of the fit.
 LR = 1e-3
 BATCH = 1024
-#: Adam's learning rate of :func:`distill_internal_force`'s fits, a tenth of the clone's: the fit
-#: takes the null-space part out of a trained policy without first unlearning its motion. A
-#: prototype on the shipped ThreeWheel track-torque agent (200k rows in 2 rounds, 20 episodes):
-#: at w = 10000, 1e-3 left 15% success of 100%, 1e-4 45%; at w = 1000 and 1e-4, 95%.
+#: Adam's learning rate of :func:`distill_internal_force`'s fits, and its default rounds and
+#: internal-force weight. ``python benchmarks/distill_internal_force.py`` on the PPO checkpoint
+#: (500k steps) of the ThreeWheel track-torque benchmark's seed 1, 300k rows, 50 evaluation
+#: episodes, internal force over the baseline's (the agent: 78x; every row 100% success):
+#: 6 rounds, weight 1000, 1e-4: 2.17x; at 1e-3: 2.32x; weight 3000: 2.15x; weight 0: 2.66x;
+#: 3 rounds: 2.76x; 1 round (the agent's own states only): 4.99x.
 DISTILL_LR = 1e-4
-#: Default rounds and internal-force weight of :func:`distill_internal_force`. The same
-#: prototype at w = 1000: 4 rounds of 100k rows left 3.8x the baseline's internal force (95%
-#: success), 6 rounds 1.7x (100%); w = 3000 in 4 rounds 45% success.
 DISTILL_ROUNDS = 6
 DISTILL_WEIGHT = 1000.0
 #: Rows per forward pass when scoring a fit (bounds the memory of a 1M-row demonstration).
@@ -380,7 +379,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
 
 def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
                            weight: float = DISTILL_WEIGHT, epochs: int | None = None,
-                           seed: int = 0, stop: Callable[[], bool] | None = None) -> dict[str, Any]:
+                           seed: int = 0, lr: float = DISTILL_LR,
+                           stop: Callable[[], bool] | None = None) -> dict[str, Any]:
     """Take the internal force out of a trained policy's Gaussian mean, keeping its motion.
 
     The teacher is the policy as trained (a frozen copy), its deterministic action less its
@@ -388,10 +388,10 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
     ``steps`` rows in ``rounds`` rounds: the policy as fitted so far drives ``model``'s training
     envs (its deterministic action), the teacher labels each state, and :func:`fit_mean`
     refits the mean on all rows so far (``epochs`` passes, default :data:`EPOCHS`; Adam at
-    :data:`DISTILL_LR`; internal-force weight ``weight``). The student drives from the first
-    round on, so the rows are the states it reaches (DAgger). ``VecNormalize`` statistics are
-    frozen meanwhile (the network's inputs keep their meaning) and its ``training`` flag
-    restored after; the value network is left as it is.
+    ``lr``, default :data:`DISTILL_LR`; internal-force weight ``weight``). The student drives
+    from the first round on, so the rows are the states it reaches (DAgger). ``VecNormalize``
+    statistics are frozen meanwhile (the network's inputs keep their meaning) and its
+    ``training`` flag restored after; the value network is left as it is.
 
     Returns the figures for ``run.json``: ``steps`` (rows), ``epochs``, ``weight``, per round
     (``rounds``) the driver's episodes and success share and its mean internal force on the
@@ -452,7 +452,7 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
             after = fit_mean(model, np.concatenate(O), np.concatenate(A),
                              epochs=epochs or EPOCHS, seed=seed + k, stop=stop,
                              force_rows=np.concatenate(F), force_weight=float(weight),
-                             lr=DISTILL_LR)
+                             lr=lr)
     finally:
         if norm is not None:
             norm.training = was_training

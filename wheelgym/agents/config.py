@@ -805,22 +805,15 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound needs policy MlpPolicy "
                          f"without use_sde")
 
-    if wg["clone_baseline"] is not None and algo not in ON_POLICY:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: clone_baseline is for "
-                         f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
-                         f"not {algo!r}")
-    for key in CLONE_KEYS[1:]:
-        if wg[key] is not None and wg["clone_baseline"] is None:
-            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs clone_baseline "
-                             f"(the steps it works on)")
-    if wg["distill_internal_force"] is not None and algo not in ON_POLICY:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: distill_internal_force is for "
-                         f"{list(ON_POLICY)} (a Gaussian policy whose mean is fitted), "
-                         f"not {algo!r}")
-    for key in DISTILL_KEYS[1:]:
-        if wg[key] is not None and wg["distill_internal_force"] is None:
-            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs distill_internal_force "
-                             f"(the steps it works on)")
+    for keys in (CLONE_KEYS, DISTILL_KEYS):  # the first starts the fit, the others need it
+        first = keys[0]
+        if wg[first] is not None and algo not in ON_POLICY:
+            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {first} is for {list(ON_POLICY)} "
+                             f"(a Gaussian policy whose mean is fitted), not {algo!r}")
+        for key in keys[1:]:
+            if wg[key] is not None and wg[first] is None:
+                raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs {first} "
+                                 f"(the steps it works on)")
 
     normalize = block.pop("normalize", False)
     noise = None
