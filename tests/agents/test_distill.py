@@ -172,3 +172,17 @@ def test_ctrl_c_during_the_distillation_keeps_the_model_and_resume_distils_again
     assert res.status == "finished" and res.timesteps == 1024
     fit = json.loads((run / "run.json").read_text())["distill"]
     assert fit["steps"] == 2048 and "interrupted" not in fit, fit
+
+
+def test_a_run_that_could_not_distil_is_refused_before_training(tmp_path):
+    dummy = _torque_config(distill_internal_force=2048)
+    dummy["wheelgym"]["vec_env"] = "dummy"
+    with pytest.raises(ValueError, match=r"distill_internal_force: needs wheelgym's native "
+                                         r"vector env \(vec_env: native\)"):
+        train(parse_config(dummy), runs_root=tmp_path, progress=False)
+    velocity = _torque_config(distill_internal_force=2048)
+    velocity["wheelgym"]["env_kwargs"]["action_mode"] = "velocity"
+    with pytest.raises(ValueError, match="distill_internal_force: needs a robot with an internal "
+                                         "force in action mode 'torque'"):
+        train(parse_config(velocity), runs_root=tmp_path, progress=False)
+    assert not any(tmp_path.iterdir())  # no run folder left behind

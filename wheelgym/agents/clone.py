@@ -123,6 +123,21 @@ def without_internal_force(core: Any, actions: np.ndarray) -> np.ndarray:
     return np.clip(tau / tau_max, -1.0, 1.0).astype(np.float32)
 
 
+def check_distill_envs(venv: Any) -> None:
+    """``ValueError`` saying why :func:`distill_internal_force` cannot run on ``venv`` (checked
+    before training, not after it): no wheelgym core under its wrappers (it needs the native
+    vector env, ``vec_env: native``), or a robot without an internal force or an action mode
+    other than ``torque``."""
+    from wheelgym.envs.baseline import baseline
+
+    try:
+        core = baseline(venv).core
+    except (TypeError, ValueError, AttributeError) as e:
+        raise ValueError(f"distill_internal_force: needs wheelgym's native vector env "
+                         f"(vec_env: native): {e}") from e
+    _null_space(core, "distill_internal_force")
+
+
 def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
     """Per row of ``core``: the orthonormal basis ``N (m, m - 3)`` of null(J^T) at its steering
     angles (TW-6) and the row's torque limits ``tau_max (m,)`` (N·m)."""

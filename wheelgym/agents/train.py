@@ -571,6 +571,7 @@ def train(
             venv = wrap_normalize(make_train_env(config), config)
             try:
                 check_reward_schedule(config, venv)
+                check_distill(config, venv)
                 model = build_model(config, venv, tensorboard_log=str(out / "tb"),
                                     verbose=verbose)
             except BaseException:
@@ -667,6 +668,14 @@ def _distill(config: TrainConfig, model, run_dir: Path, info: dict, stop) -> Non
                        "wall_s": round(time.perf_counter() - t0, 2)}
 
 
+def check_distill(config: TrainConfig, venv) -> None:
+    """``ValueError`` before training when ``distill_internal_force`` could not run after it."""
+    if config.distill_internal_force is not None:
+        from wheelgym.agents.clone import check_distill_envs
+
+        check_distill_envs(venv)
+
+
 def check_reward_schedule(config: TrainConfig, venv) -> None:
     """``ValueError`` naming the schedule's terms that the env does not have, and its terms."""
     if not config.reward_schedule:
@@ -728,6 +737,7 @@ def resume(
         venv = make_train_env(config, seed=config.seed + 7919)
         try:
             check_reward_schedule(config, venv)
+            check_distill(config, venv)
             if config.normalize is not None:
                 if stats_path is None:
                     raise ValueError(
