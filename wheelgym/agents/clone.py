@@ -105,8 +105,12 @@ def internal_force_rows(core: Any) -> np.ndarray:
     from wheelgym.tasks.tasks import internal_force_scale
 
     N, tau_max = _null_space(core, "clone_internal_force")
-    W = np.swapaxes(N, 1, 2) * tau_max[:, None, :]
-    return (W / internal_force_scale(core)).astype(np.float32)
+    return _force_rows(N, tau_max, internal_force_scale(core))
+
+
+def _force_rows(N: np.ndarray, tau_max: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`internal_force_rows` from :func:`_null_space`'s figures and ``|tau_max|``."""
+    return (np.swapaxes(N, 1, 2) * tau_max[:, None, :] / scale).astype(np.float32)
 
 
 def without_internal_force(core: Any, actions: np.ndarray) -> np.ndarray:
@@ -117,8 +121,12 @@ def without_internal_force(core: Any, actions: np.ndarray) -> np.ndarray:
     generalized force ``J^T tau``, so the same motion. Back in normalised units and clipped to
     the action box ``[-1, 1]`` (a clipped row keeps some internal force). float32.
     """
-    N, tau_max = _null_space(core, "distill_internal_force")
-    tau = np.asarray(actions, dtype=np.float64).reshape(core.num, -1) * tau_max
+    return _less_internal_force(*_null_space(core, "distill_internal_force"), actions)
+
+
+def _less_internal_force(N: np.ndarray, tau_max: np.ndarray, actions: Any) -> np.ndarray:
+    """:func:`without_internal_force` from :func:`_null_space`'s figures."""
+    tau = np.asarray(actions, dtype=np.float64).reshape(len(N), -1) * tau_max
     tau -= np.einsum("nmk,nk->nm", N, np.einsum("nmk,nm->nk", N, tau))
     return np.clip(tau / tau_max, -1.0, 1.0).astype(np.float32)
 
@@ -135,18 +143,25 @@ def check_distill_envs(venv: Any) -> None:
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"distill_internal_force: needs wheelgym's native vector env "
                          f"(vec_env: native): {e}") from e
-    _null_space(core, "distill_internal_force")
+    _check_internal_force(core, "distill_internal_force")
 
 
-def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
-    """Per row of ``core``: the orthonormal basis ``N (m, m - 3)`` of null(J^T) at its steering
-    angles (TW-6) and the row's torque limits ``tau_max (m,)`` (N·m)."""
-    from wheelgym.control.distribution import null_space_basis
-
+def _check_internal_force(core: Any, what: str) -> None:
+    """``ValueError`` (naming ``what``) for a robot without an internal force or an action mode
+    other than ``torque``."""
     spec = core.spec
     if not spec.has_internal_force or core.action_mode != "torque":
         raise ValueError(f"{what}: needs a robot with an internal force in "
                          f"action mode 'torque', got {spec.name} in {core.action_mode!r}")
+
+
+def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of ``core``: the orthonormal basis ``N (m, m - 3)`` of null(J^T) at its steering
+    angles (TW-6) and the row's torque limits ``tau_max (m,)`` (N·m);
+    :func:`_check_internal_force` first."""
+    from wheelgym.control.distribution import null_space_basis
+
+    _check_internal_force(core, what)
     models: dict[int, Any] = {}
     rows = core.params_rows
     J = np.empty((core.num, core.HI.shape[1], 3))
@@ -184,7 +199,7 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     if internal_force:
-        internal_force_rows(policy.core)  # the error before the first step
+        _check_internal_force(policy.core, "clone_internal_force")  # before the first step
     obs = venv.reset()
     O, A, R, D, F = [], [], [], [], []
     episodes = successes = 0
@@ -419,10 +434,12 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
     import torch as th
 
     from wheelgym.envs.baseline import baseline
+    from wheelgym.tasks.tasks import internal_force_scale
 
     venv = model.get_env()
     core = baseline(venv).core  # the envs' core, found under SB3's wrappers
-    _null_space(core, "distill_internal_force")  # the error before the first step
+    _check_internal_force(core, "distill_internal_force")  # the error before the first step
+    scale = internal_force_scale(core)
     policy = model.policy  # the teacher: a frozen copy (a deepcopy trips on torch's non-leaves)
     teacher = type(policy)(**policy._get_constructor_parameters()).to(policy.device)
     teacher.load_state_dict(policy.state_dict())
@@ -447,9 +464,10 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
                     break
                 with th.no_grad():
                     label = teacher.predict(obs, deterministic=True)[0]
+                N, tau_max = _null_space(core, "distill_internal_force")  # once per step
                 O.append(np.asarray(obs, dtype=np.float32).copy())
-                A.append(without_internal_force(core, label))
-                F.append(internal_force_rows(core))
+                A.append(_less_internal_force(N, tau_max, label))
+                F.append(_force_rows(N, tau_max, scale))
                 act = model.predict(obs, deterministic=True)[0]
                 obs, _, done, infos = venv.step(act)
                 for i in np.flatnonzero(done):

@@ -698,15 +698,7 @@ class TrainConfig:
             wg["reward_schedule"] = copy.deepcopy(self.reward_schedule)
         if self.mean_bound is not None:  # absent by default, like reward_schedule
             wg["mean_bound"] = self.mean_bound
-        if self.clone_baseline is not None:  # absent by default, like reward_schedule
-            wg["clone_baseline"] = self.clone_baseline
-        if self.clone_rounds is not None:
-            wg["clone_rounds"] = self.clone_rounds
-        if self.clone_epochs is not None:
-            wg["clone_epochs"] = self.clone_epochs
-        if self.clone_internal_force is not None:
-            wg["clone_internal_force"] = self.clone_internal_force
-        for key in DISTILL_KEYS:  # absent by default, like the clone's keys
+        for key in (*CLONE_KEYS, *DISTILL_KEYS):  # absent by default, like reward_schedule
             if getattr(self, key) is not None:
                 wg[key] = getattr(self, key)
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
