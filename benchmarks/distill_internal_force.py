@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> None:
     from wheelgym.agents.clone import DISTILL_LR, distill_internal_force, without_internal_force
     from wheelgym.agents.common import algo_class, make_single_env, make_train_env
     from wheelgym.agents.config import load_config
-    from wheelgym.agents.evaluate import run_episode
+    from wheelgym.agents.evaluate import evaluate_policy_episodes
     from wheelgym.agents.policies import load_agent, make_baseline
     from wheelgym.envs.baseline import baseline
 
@@ -109,7 +109,8 @@ def main(argv: list[str] | None = None) -> None:
             policy = make_baseline(env)
         elif project:
             policy = Projected(policy, env)
-        eps = [run_episode(env, policy, EVAL_SEED + k) for k in range(a.episodes)]
+        eps = evaluate_policy_episodes(env, policy, [EVAL_SEED + k for k in range(a.episodes)],
+                                       record=False)  # scores only, no traces
         env.close()
 
         def mean(attr: str) -> float | None:
