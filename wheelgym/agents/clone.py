@@ -44,9 +44,9 @@ The config key ``distill_internal_force: N`` works the other way round, after tr
 (:func:`distill_internal_force`): the trained policy is its own teacher, its actions less their
 internal force (:func:`without_internal_force`, the same generalized force ``J^T tau``) the
 labels, the states those the policy reaches (``N`` steps in ``distill_rounds`` DAgger rounds).
-PPO leaves internal force that its reward pays for: the internal-force term (weight 0.2) cost
-the ThreeWheel track-torque agent trained from scratch about 2.3 of its return of -6.4 (the
-baseline's: -0.3) after 500k steps, and the task's other terms do not depend on it at all.
+PPO leaves internal force that its reward pays for: the ThreeWheel track-torque agent after 500k
+steps with the internal-force term at 0.2 had 78x the baseline's, and removed exactly it keeps
+its motion at 0.91x (``benchmarks/distill_internal_force.py``).
 """
 
 from __future__ import annotations
