@@ -114,10 +114,22 @@ class BaselinePolicy:
         core: the environment's :class:`~wheelgym.envs.core.WheelCore`.
         v_cap: speed cap of the goal/navigate commands (m/s).
         w_cap: yaw-rate cap (rad/s).
+        planner: navigate only: ``None`` (the potential field) or one of
+            ``wheelgym.planning.PLANNERS`` (``"auto"``, ``"astar"``, ``"hybrid"``): plan on
+            the map and track the plan (:class:`~wheelgym.planning.PlanningNavigator`;
+            docs/topics/planning.md); ``planner_kwargs`` go to it.
     """
 
-    def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5) -> None:
+    def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5,
+                 planner: str | None = None, planner_kwargs: dict[str, Any] | None = None
+                 ) -> None:
         self.core = core
+        #: the planning baseline's navigator (``planner=...``), else None
+        self.navigator = None
+        if planner is not None:
+            from wheelgym.planning import PlanningNavigator
+
+            self.navigator = PlanningNavigator(core, planner, **(planner_kwargs or {}))
         spec = core.spec
         self.holonomic = spec.holonomic
         self.turns_in_place = spec.turns_in_place
@@ -170,6 +182,10 @@ class BaselinePolicy:
     def actions(self) -> np.ndarray:
         c = self.core
         task = c.task_name
+        if self.navigator is not None:  # planner=...: the plan's twist or car inputs
+            if self.navigator.car:
+                return self._scale(self.navigator.car_inputs())
+            return self._to_action(self.navigator.twist())
         if task == "track" and self._track_ctl is not None and \
                 not c.spec.tracks_twist(c.action_mode):
             pose, tw, rate = c.task.reference_at()

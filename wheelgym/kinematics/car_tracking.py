@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -158,6 +159,11 @@ class CarTracker:
         tol_pos: goal position tolerance (m) at the end of the path; ``tol_yaw`` (rad).
         steer_tol: steering error (rad) allowed before moving off at a cusp (Ackermann).
         max_replans: replans allowed per goal.
+        planner: ``planner(pose) -> ReedsSheppPath`` from the rear-axle pose ``(x, y, yaw)``
+            to wherever the caller's goal lies (an obstacle-aware plan, e.g.
+            ``wheelgym.planning``'s hybrid A*); the plan's end pose becomes the goal of
+            :meth:`reset`'s and the replans' tolerance checks. Default: the Reeds-Shepp path
+            straight to the goal pose.
     """
 
     def __init__(
@@ -178,6 +184,7 @@ class CarTracker:
         tol_yaw: float = 0.1,
         steer_tol: float = 0.05,
         max_replans: int = 10,
+        planner: Callable[[np.ndarray], ReedsSheppPath] | None = None,
     ) -> None:
         if input_mode not in _MODES:
             raise ValueError(f"input_mode must be one of {_MODES}, got {input_mode!r}")
@@ -197,6 +204,7 @@ class CarTracker:
         self.tol_pos, self.tol_yaw = tol_pos, tol_yaw
         self.steer_tol = steer_tol
         self.max_replans = max_replans
+        self.planner = planner
         self.path: ReedsSheppPath | None = None
         self.goal: tuple[float, float, float] | None = None
         self.replans = 0
@@ -227,7 +235,11 @@ class CarTracker:
 
     def _plan(self, state: np.ndarray) -> ReedsSheppPath:
         assert self.goal is not None
-        path = reeds_shepp_path(state[:3], self.goal, self.radius)
+        if self.planner is not None:
+            path = self.planner(state[:3])
+            self.goal = tuple(float(v) for v in path.goal)
+        else:
+            path = reeds_shepp_path(state[:3], self.goal, self.radius)
         self.path = path
         self._runs = self._split(path)
         self._run, self._i, self._moving = 0, 0, False

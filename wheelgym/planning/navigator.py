@@ -1,0 +1,322 @@
+"""The planning baseline's commands on the navigate task: plan on the map, then track the plan.
+
+:class:`PlanningNavigator` works on a batch of robots (a navigate core, read through the
+attributes of :class:`~wheelgym.tasks.view.BatchView` and the navigate task's ``worlds``,
+``arena`` and ``goal``); ``wheelgym.baseline(env, planner=...)`` wraps it into the baseline
+policy, which turns its commands into actions. Per row:
+
+1. **Grid.** The layout's :func:`~wheelgym.planning.grid.grid_from_world` for the robot's
+   footprint radius (random arenas: rebuilt at each reset; a map: built once per robot radius).
+2. **Plan** at the episode's start (``steps == 0``) or when the goal changes.
+
+   * Robots that turn in place (ThreeWheel, SkidSteer, CasterAGV, DiffDrive, Unicycle):
+     :func:`~wheelgym.planning.search.astar` on the cells with at least ``margin`` of gap
+     (soft cost below ``pref``), then :func:`~wheelgym.planning.search.shortcut`, then the
+     polyline resampled every ``step`` m.
+   * Cars (Bicycle, Ackermann): :func:`~wheelgym.planning.search.hybrid_astar` with the
+     turning radius of :class:`~wheelgym.kinematics.car_tracking.CarTracker` (1.25 ``R_min``),
+     heuristic :func:`~wheelgym.planning.search.cost_to_go`; the plan is a Reeds-Shepp path of
+     its primitives (``path_from_segments``).
+
+   When no path keeps ``margin``, the search is repeated with no margin; when none exists at
+   all the robot stands still (the failure is counted).
+3. **Track.** Turn-in-place robots: a carrot ``lookahead`` m along the path from the nearest
+   point (searched forwards from the last one); holonomic robots drive at the carrot,
+   the others turn toward it (in place beyond 0.6 rad) and drive with ``v cos^2(alpha)``.
+   Speed ``v_cap``, slowed within 1 m of the path's end. Cars: ``CarTracker`` (rear-wheel
+   feedback forwards and backwards, stopping on each cusp) along the plan.
+4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
+   along it for ``stuck_steps`` control steps (cars: ``CarTracker``'s own replans, which call
+   the planner again from where the car is).
+
+Planning time (wall clock of each search, grid included) is kept in :attr:`plan_times`.
+
+Units: m, rad, s; commands are body twists ``(vx, vy, wz)`` (m/s, rad/s) for the robots that
+turn in place and the car model's inputs for the cars.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from wheelgym.kinematics.car_tracking import CarTracker
+from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, path_from_segments
+from wheelgym.planning.grid import OccupancyGrid, grid_from_world
+from wheelgym.planning.search import astar, cell_weights, cost_to_go, hybrid_astar, shortcut
+
+__all__ = ["PlanningNavigator", "plan_path", "plan_car", "PLANNERS"]
+
+#: ``planner=`` choices: ``"astar"`` (grid A* + smoothing; the robots that turn in place),
+#: ``"hybrid"`` (hybrid A* over Reeds-Shepp primitives; the cars), ``"auto"`` (the robot's).
+PLANNERS = ("auto", "astar", "hybrid")
+
+
+def _nearest_free(free: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
+    """The free cell nearest to ``cell`` (itself when free), within 20 cells."""
+    i, j = cell
+    if free[i, j]:
+        return cell
+    H, W = free.shape
+    for r in range(1, 21):
+        i0, i1, j0, j1 = max(i - r, 0), min(i + r + 1, H), max(j - r, 0), min(j + r + 1, W)
+        ii, jj = np.nonzero(free[i0:i1, j0:j1])
+        if len(ii):
+            d = (ii + i0 - i) ** 2 + (jj + j0 - j) ** 2
+            k = int(np.argmin(d))
+            return int(ii[k] + i0), int(jj[k] + j0)
+    return None
+
+
+def plan_path(grid: OccupancyGrid, start_xy: Any, goal_xy: Any, *, margin: float = 0.08,
+              pref: float = 0.35, soft: float = 2.0, step: float = 0.05) -> np.ndarray | None:
+    """A* + smoothing from ``start_xy`` to ``goal_xy`` (m) on ``grid``: the path resampled
+    every ``step`` m, ``(n, 2)``, from the start to the goal; ``None`` when no path exists."""
+    sxy = np.asarray(start_xy, dtype=np.float64)[:2]
+    gxy = np.asarray(goal_xy, dtype=np.float64)[:2]
+    w = cell_weights(grid.gap, pref, soft)
+    for m in (margin, 0.0):
+        free = grid.free(m)
+        s = _nearest_free(free, grid.cell_of(sxy))
+        g = _nearest_free(free, grid.cell_of(gxy))
+        if s is None or g is None:
+            continue
+        cells, cost = astar(free, s, g, grid.res, w)
+        if not len(cells):
+            continue
+        pts = grid.origin + (cells[:, ::-1] + 0.5) * grid.res
+        pts = np.vstack([sxy, pts[1:-1], gxy]) if len(pts) > 2 else np.vstack([sxy, gxy])
+        pts = shortcut(pts, grid.gap, grid.res, grid.origin, m, pref)
+        return resample(pts, step)
+    return None
+
+
+def resample(pts: np.ndarray, step: float) -> np.ndarray:
+    """The polyline ``pts (n, 2)`` with points at most ``step`` m apart (its corners kept)."""
+    out = [pts[:1]]
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
+        k = max(1, int(math.ceil(float(np.hypot(*(b - a))) / step)))
+        u = np.arange(1, k + 1)[:, None] / k
+        out.append(a + u * (b - a))
+    return np.vstack(out)
+
+
+def plan_car(grid: OccupancyGrid, start: Any, goal_xy: Any, turn_radius: float, *,
+             margin: float = 0.06, pref: float = 0.3, tol: float = 0.15,
+             max_nodes: int = 200_000) -> tuple[ReedsSheppPath | None, int]:
+    """Hybrid A* from the pose ``start`` to ``goal_xy`` (m): ``(path, nodes)``; the path is
+    ``None`` when no plan exists."""
+    st = np.asarray(start, dtype=np.float64)[:3]
+    gxy = np.asarray(goal_xy, dtype=np.float64)[:2]
+    used = 0
+    for m in (margin, 0.0):
+        # the start may sit closer to a surface than the margin (after a stray): allow its gap
+        i, j = grid.cell_of(st)
+        m_eff = max(0.0, min(m, float(grid.gap[i, j]) - 1e-3))
+        free = grid.free(m_eff)
+        g = _nearest_free(free, grid.cell_of(gxy))
+        if g is None:
+            continue
+        h = cost_to_go(free, g, grid.res)
+        segs, n = hybrid_astar(grid.gap, grid.res, grid.origin, h, st, gxy, turn_radius,
+                               tol=tol, margin=m_eff, pref=pref, max_nodes=max_nodes)
+        used += n
+        if segs:
+            return path_from_segments(segs, turn_radius, st), used
+    return None, used
+
+
+class PlanningNavigator:
+    """Plans and tracking commands for every row of a navigate core (module docstring).
+
+    Args:
+        core: the environment's core (task ``navigate``).
+        planner: one of :data:`PLANNERS`.
+        v_cap: cruise speed (m/s) of the turn-in-place robots; ``car_speed`` the cars'.
+        lookahead: carrot distance (m); ``stray``: off-path distance (m) that re-plans;
+            ``stuck_steps``: control steps without progress along the path that re-plan.
+        res: grid cell (m).
+    """
+
+    def __init__(self, core: Any, planner: str = "auto", *, v_cap: float = 0.8,
+                 car_speed: float = 0.8, lookahead: float = 0.5, stray: float = 0.3,
+                 stuck_steps: int = 60, res: float = 0.05) -> None:
+        if planner not in PLANNERS:
+            raise ValueError(f"planner must be one of {list(PLANNERS)}, got {planner!r}")
+        if getattr(core, "task_name", None) != "navigate":
+            raise ValueError(f"planner={planner!r} plans on a navigate task's map, got task "
+                             f"{getattr(core, 'task_name', None)!r}")
+        self.core = core
+        spec = core.spec
+        self.car = not spec.turns_in_place
+        if self.car and planner == "astar":
+            raise ValueError(f"planner='astar' plans for robots that turn in place; "
+                             f"{spec.name} is car-like: use 'hybrid' or 'auto'")
+        if not self.car and planner == "hybrid":
+            raise ValueError(f"planner='hybrid' plans for the car-like robots (Bicycle, "
+                             f"Ackermann); {spec.name} turns in place: use 'astar' or 'auto'")
+        self.kind = "hybrid" if self.car else "astar"
+        self.holonomic = spec.holonomic
+        self.radius = float(spec.radius)
+        self.x_icr = float(getattr(core.base_params, "x_icr", 0.0))
+        self.v_cap, self.car_speed = float(v_cap), float(car_speed)
+        self.lookahead, self.stray, self.stuck_steps = float(lookahead), float(stray), \
+            int(stuck_steps)
+        self.res = float(res)
+        N = core.num
+        self.paths: list[np.ndarray | None] = [None] * N
+        self.idx = np.zeros(N, dtype=np.int64)
+        self.best_idx = np.zeros(N, dtype=np.int64)
+        self.since = np.zeros(N, dtype=np.int64)
+        self._goal = np.full((N, 2), np.nan)
+        self._world: list[Any] = [None] * N
+        self._grids: list[OccupancyGrid | None] = [None] * N
+        self._map_grid: OccupancyGrid | None = None
+        self.cars: list[CarTracker] | None = None
+        if self.car:
+            self.cars = [CarTracker.from_model(
+                core.model, cruise_speed=self.car_speed,
+                planner=lambda pose, i=i: self._car_plan(i, pose)) for i in range(N)]
+        #: wall-clock seconds of every plan (grid included), and the counts
+        self.plan_times: list[float] = []
+        self.plans = 0
+        self.replans = 0
+        self.failures = 0
+
+    # ------------------------------------------------------------------ grids and plans
+    def _grid(self, i: int) -> OccupancyGrid:
+        task = self.core.task
+        w = task.worlds[i]
+        if hasattr(task.arena, "bounds"):  # a map: one static geometry
+            if self._map_grid is None:
+                self._map_grid = grid_from_world(w, task.arena, self.radius, self.res)
+            return self._map_grid
+        if self._world[i] is not w or self._grids[i] is None:
+            self._grids[i] = grid_from_world(w, task.arena, self.radius, self.res)
+            self._world[i] = w
+        return self._grids[i]
+
+    def _car_plan(self, i: int, pose: np.ndarray) -> ReedsSheppPath:
+        t0 = time.perf_counter()
+        grid = self._grid(i)
+        assert self.cars is not None
+        path, _ = plan_car(grid, pose, self._goal[i], self.cars[i].radius)
+        self.plan_times.append(time.perf_counter() - t0)
+        self.plans += 1
+        if path is None:
+            self.failures += 1
+            return path_from_segments([], self.cars[i].radius, pose)
+        return path
+
+    def _plan_row(self, i: int) -> None:
+        c = self.core
+        t0 = time.perf_counter()
+        grid = self._grid(i)
+        p = self._point(c.pose[i:i + 1])[0]
+        path = plan_path(grid, p, self._goal[i])
+        self.plan_times.append(time.perf_counter() - t0)
+        self.plans += 1
+        if path is None:
+            self.failures += 1
+        self.paths[i] = path
+        self.idx[i] = 0
+        self.best_idx[i] = 0
+        self.since[i] = 0
+
+    def _point(self, pose: np.ndarray) -> np.ndarray:
+        """The tracked point: the pose, SkidSteer's ICR point ``x_icr`` ahead."""
+        if self.holonomic or self.x_icr == 0.0:
+            return pose[:, :2].copy()
+        return pose[:, :2] + self.x_icr * np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], 1)
+
+    def _new_episodes(self) -> np.ndarray:
+        c = self.core
+        goal = c.task.goal[:, :2]
+        new = (c.steps == 0) | ~np.all(goal == self._goal, axis=1)
+        for i in np.flatnonzero(new):
+            self._goal[i] = goal[i]
+        return np.flatnonzero(new)
+
+    # ------------------------------------------------------------------ commands
+    def twist(self) -> np.ndarray:
+        """Body-twist commands ``(N, 3)`` (m/s, m/s, rad/s) of the turn-in-place robots."""
+        c = self.core
+        for i in self._new_episodes():
+            self._plan_row(int(i))
+        N = c.num
+        cmd = np.zeros((N, 3))
+        p = self._point(c.pose)
+        yaw = c.pose[:, 2]
+        look = max(1, int(round(self.lookahead / 0.05)))
+        for i in range(N):
+            path = self.paths[i]
+            if path is None:
+                continue
+            n = len(path)
+            j0 = int(self.idx[i])
+            win = path[j0:min(n, j0 + 40)]
+            d2 = np.sum((win - p[i]) ** 2, axis=1)
+            j = j0 + int(np.argmin(d2))
+            off = math.sqrt(float(d2[j - j0]))
+            self.idx[i] = j
+            if j > self.best_idx[i]:
+                self.best_idx[i] = j
+                self.since[i] = 0
+            else:
+                self.since[i] += 1
+            if off > self.stray or self.since[i] > self.stuck_steps:
+                self.replans += 1
+                self._plan_row(i)
+                path = self.paths[i]
+                if path is None:
+                    continue
+                n, j = len(path), 0
+            target = path[min(n - 1, j + look)]
+            left = (n - 1 - j) * 0.05
+            v = min(self.v_cap, 0.15 + 0.8 * left)
+            dx, dy = target[0] - p[i, 0], target[1] - p[i, 1]
+            cy, sy = math.cos(yaw[i]), math.sin(yaw[i])
+            ex, ey = cy * dx + sy * dy, -sy * dx + cy * dy
+            dist = math.hypot(ex, ey)
+            alpha = math.atan2(ey, ex)
+            if self.holonomic:
+                if dist > 1e-9:
+                    cmd[i, 0], cmd[i, 1] = v * ex / dist, v * ey / dist
+                cmd[i, 2] = min(max(2.0 * alpha, -1.5), 1.5)
+            else:
+                cmd[i, 0] = 0.0 if abs(alpha) > 0.6 else v * math.cos(alpha) ** 2
+                cmd[i, 2] = min(max(2.5 * alpha, -1.5), 1.5)
+        return cmd
+
+    def car_inputs(self) -> np.ndarray:
+        """The cars' model inputs ``(N, m)`` in their input mode (``CarTracker.action``)."""
+        c = self.core
+        assert self.cars is not None
+        for i in self._new_episodes():
+            self.cars[i].reset(c.X[i], (*self._goal[i], 0.0))
+        u = np.empty((c.num, c.m))
+        for i, car in enumerate(self.cars):
+            u[i] = car.action(c.X[i], c.dt)
+        return u
+
+    def waypoints(self, i: int) -> np.ndarray | None:
+        """Row ``i``'s current plan as points ``(n, 2)`` (m), or ``None`` (for drawing)."""
+        if self.cars is not None:
+            car = self.cars[i]
+            if car.path is None:
+                return None
+            from wheelgym.kinematics.reeds_shepp import sample
+
+            return sample(car.path, car.path.start, 0.05).poses[:, :2]
+        return self.paths[i]
+
+    def stats(self) -> dict[str, float]:
+        """Plans, replans, failures and planning time (mean and max, ms)."""
+        t = np.asarray(self.plan_times) * 1e3
+        return {"plans": self.plans, "replans": self.replans, "failures": self.failures,
+                "plan_ms_mean": float(t.mean()) if len(t) else 0.0,
+                "plan_ms_max": float(t.max()) if len(t) else 0.0}
+
