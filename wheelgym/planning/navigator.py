@@ -18,12 +18,14 @@ policy, which turns its commands into actions. Per row:
      heuristic :func:`~wheelgym.planning.search.cost_to_go`; the plan is a Reeds-Shepp path of
      its primitives (``path_from_segments``).
 
-   When no path keeps ``margin``, the search is repeated with no margin; when none exists at
-   all the robot stands still (the failure is counted).
+   When no path keeps ``margin``, the search is repeated with half of it, then none; when
+   none exists at all the robot stands still (the failure is counted).
 3. **Track.** Turn-in-place robots: a carrot ``lookahead`` m along the path from the nearest
    point (searched forwards from the last one); holonomic robots drive at the carrot,
-   the others turn toward it (in place beyond 0.6 rad) and drive with ``v cos^2(alpha)``.
-   Speed ``v_cap``, slowed within 1 m of the path's end. Cars: ``CarTracker`` (rear-wheel
+   the others turn toward it (in place beyond 0.6 rad; 0.25 rad where the gap is below
+   0.15 m) and drive with ``v cos^2(alpha)``. The carrot moves nearer while the straight line
+   to it has less gap than the robot has now (no corner cutting). Speed ``v_cap``, slowed
+   within 1 m of the path's end and where the gap is below 0.15 m (times ``(gap + 0.1) / 0.25``, at least 0.4). Cars: ``CarTracker`` (rear-wheel
    feedback forwards and backwards, stopping on each cusp) along the plan.
 4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
    along it for ``stuck_steps`` control steps (cars: ``CarTracker``'s own replans, which call
@@ -46,7 +48,14 @@ import numpy as np
 from wheelgym.kinematics.car_tracking import CarTracker
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, path_from_segments
 from wheelgym.planning.grid import OccupancyGrid, grid_from_world
-from wheelgym.planning.search import astar, cell_weights, cost_to_go, hybrid_astar, shortcut
+from wheelgym.planning.search import (
+    astar,
+    cell_weights,
+    cost_to_go,
+    hybrid_astar,
+    segment_gap,
+    shortcut,
+)
 
 __all__ = ["PlanningNavigator", "plan_path", "plan_car", "PLANNERS"]
 
@@ -78,7 +87,7 @@ def plan_path(grid: OccupancyGrid, start_xy: Any, goal_xy: Any, *, margin: float
     sxy = np.asarray(start_xy, dtype=np.float64)[:2]
     gxy = np.asarray(goal_xy, dtype=np.float64)[:2]
     w = cell_weights(grid.gap, pref, soft)
-    for m in (margin, 0.0):
+    for m in (margin, 0.5 * margin, 0.0):
         free = grid.free(m)
         s = _nearest_free(free, grid.cell_of(sxy))
         g = _nearest_free(free, grid.cell_of(gxy))
@@ -135,13 +144,16 @@ class PlanningNavigator:
     Args:
         core: the environment's core (task ``navigate``).
         planner: one of :data:`PLANNERS`.
-        v_cap: cruise speed (m/s) of the turn-in-place robots; ``car_speed`` the cars'.
+        v_cap: cruise speed (m/s) of the turn-in-place robots (cut to the robot's
+            ``speed_range``); ``w_cap`` their yaw-rate cap (rad/s); ``car_speed`` the cars'
+            cruise speed (m/s).
         lookahead: carrot distance (m); ``stray``: off-path distance (m) that re-plans;
             ``stuck_steps``: control steps without progress along the path that re-plan.
         res: grid cell (m).
     """
 
-    def __init__(self, core: Any, planner: str = "auto", *, v_cap: float = 0.8,
+    def __init__(self, core: Any, planner: str = "auto", *, v_cap: float = 1.5,
+                 w_cap: float = 3.0,
                  car_speed: float = 0.8, lookahead: float = 0.5, stray: float = 0.3,
                  stuck_steps: int = 60, res: float = 0.05) -> None:
         if planner not in PLANNERS:
@@ -162,10 +174,15 @@ class PlanningNavigator:
         self.holonomic = spec.holonomic
         self.radius = float(spec.radius)
         self.x_icr = float(getattr(core.base_params, "x_icr", 0.0))
-        self.v_cap, self.car_speed = float(v_cap), float(car_speed)
+        # within the robot's speed range where it has one (the kinematic robots)
+        hi = getattr(core.base_params, "speed_range", (math.inf, math.inf))[1]
+        self.v_cap = min(float(v_cap), float(hi))
+        self.w_cap, self.car_speed = float(w_cap), float(car_speed)
         self.lookahead, self.stray, self.stuck_steps = float(lookahead), float(stray), \
             int(stuck_steps)
         self.res = float(res)
+        #: the plans' least gap (m) between the footprint and the nearest surface
+        self.margin = 0.08
         N = core.num
         self.paths: list[np.ndarray | None] = [None] * N
         self.idx = np.zeros(N, dtype=np.int64)
@@ -216,7 +233,7 @@ class PlanningNavigator:
         t0 = time.perf_counter()
         grid = self._grid(i)
         p = self._point(c.pose[i:i + 1])[0]
-        path = plan_path(grid, p, self._goal[i])
+        path = plan_path(grid, p, self._goal[i], margin=self.margin)
         self.plan_times.append(time.perf_counter() - t0)
         self.plans += 1
         if path is None:
@@ -274,9 +291,27 @@ class PlanningNavigator:
                 if path is None:
                     continue
                 n, j = len(path), 0
-            target = path[min(n - 1, j + look)]
+            # the carrot: ``lookahead`` on, nearer where the straight line to it would cut
+            # a corner closer to a surface than the robot is now (or the margin)
+            grid = self._grid(i)
+            gi, gj = grid.cell_of(p[i])
+            here = float(grid.gap[gi, gj])
+            need = min(self.margin, here)
+            ahead = look
+            while ahead > 1:
+                target = path[min(n - 1, j + ahead)]
+                if segment_gap(grid.gap, grid.res, grid.origin, p[i], target) >= need:
+                    break
+                ahead //= 2
+            target = path[min(n - 1, j + ahead)]
             left = (n - 1 - j) * 0.05
-            v = min(self.v_cap, 0.15 + 0.8 * left)
+            # the path's turn over the next metre: slower into corners
+            a0, a1 = path[min(n - 1, j + 1)] - path[j], path[min(n - 1, j + 20)] - \
+                path[min(n - 1, j + 19)]
+            bend = abs(math.atan2(a0[0] * a1[1] - a0[1] * a1[0], a0[0] * a1[0] + a0[1] * a1[1]))
+            # slower near the goal and where the gap is small
+            v = min(self.v_cap, 0.15 + 0.8 * left) * min(max((here + 0.1) / 0.25, 0.4), 1.0) \
+                * max(0.4, math.cos(0.5 * bend))
             dx, dy = target[0] - p[i, 0], target[1] - p[i, 1]
             cy, sy = math.cos(yaw[i]), math.sin(yaw[i])
             ex, ey = cy * dx + sy * dy, -sy * dx + cy * dy
@@ -285,10 +320,12 @@ class PlanningNavigator:
             if self.holonomic:
                 if dist > 1e-9:
                     cmd[i, 0], cmd[i, 1] = v * ex / dist, v * ey / dist
-                cmd[i, 2] = min(max(2.0 * alpha, -1.5), 1.5)
+                cmd[i, 2] = min(max(2.0 * alpha, -self.w_cap), self.w_cap)
             else:
-                cmd[i, 0] = 0.0 if abs(alpha) > 0.6 else v * math.cos(alpha) ** 2
-                cmd[i, 2] = min(max(2.5 * alpha, -1.5), 1.5)
+                # turn in place beyond 0.6 rad of heading error (0.25 rad in narrow passages)
+                turn = 0.6 if here > 0.15 else 0.25
+                cmd[i, 0] = 0.0 if abs(alpha) > turn else v * math.cos(alpha) ** 2
+                cmd[i, 2] = min(max(3.0 * alpha, -self.w_cap), self.w_cap)
         return cmd
 
     def car_inputs(self) -> np.ndarray:

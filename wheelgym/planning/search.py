@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["astar", "cost_to_go", "shortcut", "hybrid_astar", "cell_weights", "KINDS"]
+__all__ = ["astar", "cost_to_go", "shortcut", "segment_gap", "hybrid_astar", "cell_weights", "KINDS"]
 
 #: Primitive kinds of :func:`hybrid_astar`'s plans (index: the kernel's kind code).
 KINDS = ("L", "S", "R")
@@ -265,6 +265,14 @@ def _k_shortcut(xy, gap, res, ox, oy, margin, pref, keep):  # pragma: no cover -
         m += 1
         i = best
     return m
+
+
+def segment_gap(gap: np.ndarray, res: float, origin: np.ndarray, a: np.ndarray,
+                b: np.ndarray) -> float:
+    """Least gap (m) of the cells along the straight segment from ``a`` to ``b`` (sampled every
+    half cell; ``-inf`` off the grid)."""
+    return float(_k_min_gap(gap, float(res), float(origin[0]), float(origin[1]), float(a[0]),
+                            float(a[1]), float(b[0]), float(b[1])))
 
 
 def shortcut(xy: np.ndarray, gap: np.ndarray, res: float, origin: np.ndarray, margin: float,
