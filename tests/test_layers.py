@@ -3,7 +3,8 @@
 Layers, lowest first (a module may import its own layer and the ones below)::
 
     _numba_cache, integrators, registration, safe_yaml  <-  models  <-  kinematics  <-  control
-    <-  world  <-  tasks  <-  render  <-  envs  <-  vector  <-  agents  <-  validate, cli, warmup
+    <-  world  <-  planning  <-  tasks  <-  render  <-  envs  <-  vector  <-  agents
+    <-  validate, cli, warmup
 
 ``wheelgym/__init__.py`` stands outside the layers (it registers the ids and reaches the
 subpackages lazily). Every ``import`` statement counts: module level, function-local and
@@ -28,7 +29,8 @@ PKG = Path(__file__).resolve().parents[1] / "wheelgym"
 
 RANK = {
     "_numba_cache": 0, "integrators": 0, "registration": 0, "safe_yaml": 0,
-    "models": 1, "kinematics": 2, "control": 3, "world": 4, "tasks": 5, "render": 6,
+    "models": 1, "kinematics": 2, "control": 3, "world": 4, "planning": 4.5, "tasks": 5,
+    "render": 6,
     "envs": 7, "vector": 8, "agents": 9, "validate": 10, "cli": 10, "warmup": 10,
 }
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-__all__ = ["register_envs", "env_id", "available_robots", "ENV_CLASSES", "DEFAULT_HORIZON"]
+__all__ = ["register_envs", "env_id", "available_robots", "ENV_CLASSES", "DEFAULT_HORIZON",
+           "VERSIONS"]
 
 #: Default episode length (control steps) of every registered id.
 DEFAULT_HORIZON = 500
@@ -26,11 +27,18 @@ ENV_CLASSES = {
 }
 
 
-def env_id(robot: str) -> str:
-    """``"wheelgym/<robot>-v0"``."""
+#: Registered versions: ``-v0`` and ``-v1`` (navigate's v1 reward and observation; goal and
+#: track are the same in both; docs/topics/planning.md has the version history).
+VERSIONS = (0, 1)
+
+
+def env_id(robot: str, version: int = 0) -> str:
+    """``"wheelgym/<robot>-v<version>"``."""
     if robot not in ENV_CLASSES:
         raise ValueError(f"unknown robot {robot!r}; valid robots: {list(ENV_CLASSES)}")
-    return f"wheelgym/{robot}-v0"
+    if isinstance(version, bool) or version not in VERSIONS:
+        raise ValueError(f"version must be one of {list(VERSIONS)}, got {version!r}")
+    return f"wheelgym/{robot}-v{version}"
 
 
 def available_robots() -> list[str]:
@@ -39,14 +47,16 @@ def available_robots() -> list[str]:
 
 
 def register_envs() -> None:
-    """Register ``wheelgym/<Robot>-v0`` for every robot (idempotent)."""
+    """Register ``wheelgym/<Robot>-v0`` and ``-v1`` for every robot (idempotent)."""
     for robot, env_class in ENV_CLASSES.items():
-        eid = env_id(robot)
-        if eid in gym.registry:
-            continue
-        gym.register(
-            id=eid,
-            entry_point=f"wheelgym.envs:{env_class}",
-            vector_entry_point=f"wheelgym.vector:{env_class.replace('Env', 'VectorEnv')}",
-            max_episode_steps=DEFAULT_HORIZON,
-        )
+        for version in VERSIONS:
+            eid = env_id(robot, version)
+            if eid in gym.registry:
+                continue
+            gym.register(
+                id=eid,
+                entry_point=f"wheelgym.envs:{env_class}",
+                vector_entry_point=f"wheelgym.vector:{env_class.replace('Env', 'VectorEnv')}",
+                max_episode_steps=DEFAULT_HORIZON,
+                kwargs={"version": version} if version else {},
+            )

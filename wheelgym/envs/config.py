@@ -45,6 +45,8 @@ MAX_CTRL_DT = 1.0
 MAX_SUBSTEPS = 10_000
 #: Motor models of the ``motor`` keyword (``wheelgym.models.motor``).
 MOTORS = ("ideal", "dc")
+#: Env versions (the ids' ``-vN``; :mod:`wheelgym.registration`).
+VERSIONS = (0, 1)
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 
@@ -188,7 +190,9 @@ class EnvConfig:
         arena: navigate's static world: None (random circles and boxes, redrawn each reset), a
             shipped map's name (``wheelgym.world.MAPS``) or a map file's path (ROS map_server
             YAML or a YAML of shapes; :func:`wheelgym.world.load_map`).
-        horizon: track: reference steps evaluated at a reset by small batches.
+        horizon: track: reference steps evaluated at a reset by small batches; navigate
+            ``version=1``: the episode length (control steps) its per-step costs are spread
+            over (docs/topics/planning.md).
         goal_conditioned: goal and navigate: a ``Dict`` observation (``observation``,
             ``achieved_goal``, ``desired_goal``) and ``compute_reward`` for HER.
         action_delay: control steps between an action and its effect (0 to
@@ -201,6 +205,11 @@ class EnvConfig:
             it resolves to the action mode's: ``"dc"`` with ``action_mode="voltage"`` (the
             action is the DC motors' terminal voltage; ``"ideal"`` with it raises), else
             ``"ideal"``.
+        version: the registered id's version: 0 (``wheelgym/<Robot>-v0``) or 1 (``-v1``:
+            navigate's v1 reward and observation, docs/topics/planning.md; goal and track are
+            the same in both).
+        waypoint_hint: navigate ``version=1``: the planner's next waypoint in the
+            observation (an opt-in hint).
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -221,6 +230,8 @@ class EnvConfig:
     action_delay: int = 0
     actuator_lag: float = 0.0
     motor: str | None = None
+    version: int = 0
+    waypoint_hint: bool = False
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -284,6 +295,16 @@ class EnvConfig:
         if self.goal_conditioned and self.task not in ("goal", "navigate"):
             raise ValueError(f"goal_conditioned applies to task='goal' or 'navigate' only, "
                              f"got task={self.task!r}")
+        if isinstance(self.version, bool) or self.version not in VERSIONS:
+            raise ValueError(f"version must be one of {list(VERSIONS)} (the id's -vN), got "
+                             f"{self.version!r}")
+        put("version", int(self.version))
+        if not isinstance(self.waypoint_hint, (bool, np.bool_)):
+            raise TypeError(f"waypoint_hint must be a bool, got {self.waypoint_hint!r}")
+        put("waypoint_hint", bool(self.waypoint_hint))
+        if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
+            raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
+                             "(version=1) only")
 
     def _put(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)
@@ -304,7 +325,10 @@ class EnvConfig:
         """Keywords of the task's constructor beyond the core and the reward weights."""
         if self.task != "navigate":
             return {}
-        return {"range_backend": self.range_backend, "arena": self.arena}
+        kw: dict[str, Any] = {"range_backend": self.range_backend, "arena": self.arena}
+        if self.version == 1:
+            kw.update(version=1, waypoint_hint=self.waypoint_hint)
+        return kw
 
     def replace(self, **changes: Any) -> EnvConfig:
         """A new config with ``changes`` (validated)."""

@@ -25,7 +25,9 @@ policy, which turns its commands into actions. Per row:
    the others turn toward it (in place beyond 0.6 rad; 0.25 rad where the gap is below
    0.15 m) and drive with ``v cos^2(alpha)``. The carrot moves nearer while the straight line
    to it has less gap than the robot has now (no corner cutting). Speed ``v_cap``, slowed
-   within 1 m of the path's end and where the gap is below 0.15 m (times ``(gap + 0.1) / 0.25``, at least 0.4). Cars: ``CarTracker`` (rear-wheel
+   within 1 m of the path's end, where the gap is below 0.15 m (times
+   ``(gap + 0.1) / 0.25``, at least 0.4) and into bends (times ``cos(bend / 2)``, at least
+   0.4, ``bend`` the path's turn over the next metre). Cars: ``CarTracker`` (rear-wheel
    feedback forwards and backwards, stopping on each cusp) along the plan.
 4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
    along it for ``stuck_steps`` control steps (cars: ``CarTracker``'s own replans, which call
@@ -57,7 +59,7 @@ from wheelgym.planning.search import (
     shortcut,
 )
 
-__all__ = ["PlanningNavigator", "plan_path", "plan_car", "PLANNERS"]
+__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "resample", "PLANNERS"]
 
 #: ``planner=`` choices: ``"astar"`` (grid A* + smoothing; the robots that turn in place),
 #: ``"hybrid"`` (hybrid A* over Reeds-Shepp primitives; the cars), ``"auto"`` (the robot's).
@@ -357,3 +359,61 @@ class PlanningNavigator:
                 "plan_ms_mean": float(t.mean()) if len(t) else 0.0,
                 "plan_ms_max": float(t.max()) if len(t) else 0.0}
 
+
+
+class WaypointHint:
+    """The navigate -v1 observation's opt-in hint: the point ``ahead`` m along a shortest path
+    (:func:`plan_path` on the layout's grid) from the robot to its goal.
+
+    Each row plans when its episode starts, when its layout or goal changes, and when the robot
+    is more than ``stray`` m from the path; between plans the nearest path point is searched
+    forwards from the last one. Without a path the hint is the goal itself.
+
+    Args:
+        arena: the task's :class:`~wheelgym.world.Arena` or :class:`~wheelgym.world.MapArena`.
+        radius: the robot's footprint radius (m).
+        num: rows.
+    """
+
+    def __init__(self, arena: Any, radius: float, num: int, *, ahead: float = 1.0,
+                 stray: float = 0.5, res: float = 0.05) -> None:
+        self.arena, self.radius, self.res = arena, float(radius), float(res)
+        self.ahead, self.stray = float(ahead), float(stray)
+        self.paths: list[np.ndarray | None] = [None] * num
+        self.idx = np.zeros(num, dtype=np.int64)
+        self._key: list[Any] = [None] * num
+        self._grid: dict[int, OccupancyGrid] = {}
+
+    def _grid_of(self, world: Any) -> OccupancyGrid:
+        key = 0 if hasattr(self.arena, "bounds") else id(world)  # a map: one geometry
+        if key not in self._grid:
+            if key:
+                self._grid.clear()  # random layouts: keep the latest ones only
+            self._grid[key] = grid_from_world(world, self.arena, self.radius, self.res)
+        return self._grid[key]
+
+    def waypoint(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray,
+                 new_episode: bool) -> tuple[float, float]:
+        """Row ``i``'s hint ``(x, y)`` (m, world frame) at ``pose``."""
+        key = (id(world), float(goal[0]), float(goal[1]))
+        path = self.paths[i]
+        if new_episode or key != self._key[i] or path is None:
+            path = self._plan(i, world, pose, goal, key)
+        j0 = int(self.idx[i])
+        win = path[j0:j0 + 40]
+        d2 = np.sum((win - pose[:2]) ** 2, axis=1)
+        j = j0 + int(np.argmin(d2))
+        if d2[j - j0] > self.stray ** 2:
+            path = self._plan(i, world, pose, goal, key)
+            j = 0
+        self.idx[i] = j
+        p = path[min(len(path) - 1, j + int(round(self.ahead / 0.05)))]
+        return float(p[0]), float(p[1])
+
+    def _plan(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray, key: Any
+              ) -> np.ndarray:
+        path = plan_path(self._grid_of(world), pose[:2], goal[:2])
+        if path is None:
+            path = np.asarray(goal[:2], dtype=np.float64)[None].copy()
+        self.paths[i], self.idx[i], self._key[i] = path, 0, key
+        return path

@@ -30,7 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["astar", "cost_to_go", "shortcut", "segment_gap", "hybrid_astar", "cell_weights", "KINDS"]
+__all__ = ["astar", "cost_to_go", "shortcut", "segment_gap", "hybrid_astar", "cell_weights",
+           "KINDS"]
 
 #: Primitive kinds of :func:`hybrid_astar`'s plans (index: the kernel's kind code).
 KINDS = ("L", "S", "R")

@@ -27,7 +27,7 @@ from wheelgym.tasks.kernels import k_add1, k_goal, k_goal_par, k_goal_reset, k_t
 from wheelgym.tasks.view import BatchView, RobotConstants
 
 __all__ = ["Task", "GoalTask", "TrackTask", "NavigateTask", "TASKS", "POS_CLIP", "HER_INFO_KEYS",
-           "GOAL_POS_BOUND", "her_info_arrays"]
+           "GOAL_POS_BOUND", "her_info_arrays", "NAVIGATE_V1_WEIGHTS", "navigate_v1_bound"]
 
 #: Bound of positions in the observation (m).
 POS_CLIP = 12.0
@@ -387,8 +387,58 @@ def her_info_arrays(info: HerInfo, batch: tuple[int, ...], dim: int
                          f"{batch}") from None
 
 
+#: navigate ``version=1`` (the ``-v1`` ids): default weights, in per-episode units
+#: (:class:`NavigateTask`'s docstring): progress ``w_p`` over the arena's diagonal, the
+#: per-step costs over the horizon, the ends as they are.
+NAVIGATE_V1_WEIGHTS = {"progress": 10.0, "heading": 0.0, "effort": 1.0, "internal_force": 1.0,
+                       "success": 20.0, "overspeed": 20.0, "collision": 20.0,
+                       "proximity": 1.0, "saturation": 0.0}
+#: The per-step cost columns (each term's value lies in [0, 1]) and the failure ends.
+_COST_TERMS = ("heading", "effort", "internal_force", "proximity", "saturation")
+_FAIL_TERMS = ("overspeed", "collision")
+
+
+def navigate_v1_bound(weights: Mapping[str, float]) -> tuple[float, float]:
+    """``(w_p + C, C)`` of a navigate -v1 weight set: the least failure penalty and the least
+    success bonus for which no policy gains by ending early (:class:`NavigateTask`), with
+    ``C`` the sum of the per-step cost weights."""
+    c = sum(abs(float(weights.get(k, 0.0))) for k in _COST_TERMS)
+    return abs(float(weights.get("progress", 0.0))) + c, c
+
+
 class NavigateTask(GoalTask):
-    """Reach a goal position in an arena with obstacles, sensing them with range rays."""
+    """Reach a goal position in an arena with obstacles, sensing them with range rays.
+
+    ``version=1`` (the ``-v1`` ids) changes the reward's units so that no policy gains by
+    ending its episode early (crashing, overspeeding) or by standing still, and adds
+    observation entries. Each weight is what its term can add up to over one episode:
+
+    * progress: ``(w_p / D) (d_{t-1} - d_t)`` with ``D`` the diagonal of the arena's bounds
+      (m), the farthest a robot inside the walls can be from its goal;
+    * the per-step costs (heading, effort, internal_force, proximity, saturation; each term's
+      value in [0, 1]): weight ``w_c / T`` per step, ``T`` the core's ``horizon`` (500, the
+      ids' ``max_episode_steps``), so an episode of at most ``T`` steps pays at most
+      ``C = sum w_c`` in all;
+    * success ``+S``, overspeed and collision ``-P`` once, as in v0.
+
+    The bound (derivation). Take any step ``k`` and any state. A failure at step ``k + 1``
+    gets at most ``(w_p / D) d_k - P`` from there on (the last progress is at most
+    ``(w_p / D) d_k``, the cost is not negative). Any continuation without a failure end (stand
+    still, drive on, time out or succeed) gets at least ``(w_p / D) (d_k - d_end) - C >=
+    (w_p / D) d_k - w_p - C`` (``d_end <= D``; the success bonus is not negative). So with
+    ``P > w_p + C`` every continuation beats failing from the same state: no early-end gain.
+    Standing still for a whole episode earns ``-C <= G_still <= 0``; reaching the goal from
+    ``d_0`` earns at least ``(w_p / D)(d_0 - tol) - C + S``, more than any standing still when
+    ``S > C``. The defaults (:data:`NAVIGATE_V1_WEIGHTS`): ``w_p = 10``, ``C = 3``,
+    ``P = S = 20 > 13``; :func:`navigate_v1_bound` gives both limits of a weight set
+    (tests/planning/test_navigate_v1.py checks the bound on constructed episodes).
+
+    v1's observation appends, after the rays: the goal in polar body coordinates
+    ``goal_dist`` (m, clipped to 12), ``cos_bearing``, ``sin_bearing``; with
+    ``waypoint_hint=True`` also ``waypoint_x_b``, ``waypoint_y_b`` (m): the point 1 m along a
+    shortest path on the map (:class:`~wheelgym.planning.WaypointHint`), re-planned when the
+    robot strays from it by 0.5 m.
+    """
 
     name = "navigate"
     default_weights = {**GoalTask.default_weights, "heading": 0.0}
@@ -400,9 +450,17 @@ class NavigateTask(GoalTask):
     _goal_cols = (0, 4)  # heading (weight 0 by default) compares with the env's goal yaw
 
     def __init__(self, core: BatchView, weights: Mapping[str, float] | None,
-                 range_backend: str = "analytic", arena: str | None = None) -> None:
+                 range_backend: str = "analytic", arena: str | None = None,
+                 version: int = 0, waypoint_hint: bool = False) -> None:
         from wheelgym.world import Arena, load_map
 
+        if version not in (0, 1):
+            raise ValueError(f"version must be 0 or 1, got {version!r}")
+        self.version = int(version)
+        self.waypoint_hint = bool(waypoint_hint) and self.version == 1
+        self._scale: np.ndarray | None = None  # v1's per-column weight scales (below)
+        if self.version == 1:
+            self.default_weights = NAVIGATE_V1_WEIGHTS
         super().__init__(core, weights)
         if range_backend not in ("analytic", "pymunk"):
             raise ValueError(
@@ -419,8 +477,32 @@ class NavigateTask(GoalTask):
         self.ns = np.zeros(N, dtype=np.int64)
         self.spaces: list[Any] = [None] * N
         self.worlds: list[Any] = [None] * N
+        self.hint = None
+        if self.version == 1:
+            b = getattr(self.arena, "bounds", None)
+            if b is None:
+                L = float(self.arena.half_size)
+                b = (-L, -L, L, L)
+            #: v1: the arena's diagonal (m), the progress term's unit
+            self.diagonal = float(math.hypot(b[2] - b[0], b[3] - b[1]))
+            scale = np.ones(len(self.columns))
+            scale[self.columns.index("progress")] = 1.0 / self.diagonal
+            for k in _COST_TERMS:
+                scale[self.columns.index(k)] = 1.0 / core.horizon
+            self._scale = scale
+            self.set_weights(None)  # the scales on the weights set above
+            if self.waypoint_hint:
+                from wheelgym.planning import WaypointHint
+
+                self.hint = WaypointHint(self.arena, core.spec.radius, N)
+            self._polar = np.zeros((N, 3 + 2 * self.waypoint_hint))
 
     option_keys = ("start", "goal", "layout_seed")
+
+    def set_weights(self, weights: Mapping[str, float] | None) -> None:
+        super().set_weights(weights)
+        if self._scale is not None:  # v1: the weights are per-episode totals (docstring)
+            self.W *= self._scale
 
     def term_names(self, spec) -> tuple[str, ...]:
         return Task.term_names(self, spec)
@@ -459,15 +541,31 @@ class NavigateTask(GoalTask):
                              f"circle (radius {r} m) must lie inside the walls (+-{lim} m) "
                              f"and clear of the obstacles (clearance {clear[0]:.3g} m)")
 
+    def _extra_layout(self) -> tuple[list[str], list[float], list[float]]:
+        """v1's entries after the rays: names, lows, highs."""
+        if self.version == 0:
+            return [], [], []
+        names = ["goal_dist", "cos_bearing", "sin_bearing"]
+        low, high = [0.0, -1.0, -1.0], [POS_CLIP, 1.0, 1.0]
+        if self.waypoint_hint:
+            names += ["waypoint_x_b", "waypoint_y_b"]
+            low += [-POS_CLIP, -POS_CLIP]
+            high += [POS_CLIP, POS_CLIP]
+        return names, low, high
+
     def obs_layout(self):
         names, high = super().obs_layout()
         names += [f"range_{k}" for k in range(self.n_rays)]
-        return names, np.concatenate([high, np.full(self.n_rays, self.max_range)])
+        xn, _, xh = self._extra_layout()
+        return names + xn, np.concatenate([high, np.full(self.n_rays, self.max_range), xh])
 
     def obs_low(self) -> np.ndarray:
         _, high = self.obs_layout()
+        xn, xl, _ = self._extra_layout()
         low = -high
-        low[-self.n_rays:] = 0.0
+        end = len(low) - len(xn)
+        low[end - self.n_rays:end] = 0.0
+        low[end:] = xl
         return low
 
     def reset_rows(self, idx, rngs, options):
@@ -534,6 +632,33 @@ class NavigateTask(GoalTask):
     def evaluate(self, rows: np.ndarray | None = None) -> None:
         self.sense(rows)
         super().evaluate(rows)
+        if self.version == 1:
+            self._extra_obs(self.core.all_rows if rows is None else rows)
+
+    def _extra_obs(self, rows: np.ndarray) -> None:
+        """v1's polar goal (and the waypoint hint) of ``rows``, after the kernel's entries."""
+        c = self.core
+        pose = c.pose[rows]
+        out = self._polar[:len(rows)] if len(rows) <= len(self._polar) else \
+            np.zeros((len(rows), self._polar.shape[1]))
+        dx = self.goal[rows, 0] - pose[:, 0]
+        dy = self.goal[rows, 1] - pose[:, 1]
+        cy, sy = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        bx, by = cy * dx + sy * dy, -sy * dx + cy * dy
+        d = np.sqrt(bx * bx + by * by)
+        safe = np.where(d > 0.0, d, 1.0)
+        out[:, 0] = np.minimum(d, POS_CLIP)
+        out[:, 1] = np.where(d > 0.0, bx / safe, 1.0)
+        out[:, 2] = np.where(d > 0.0, by / safe, 0.0)
+        if self.hint is not None:
+            for n, i in enumerate(rows.tolist()):
+                wx, wy = self.hint.waypoint(i, self.worlds[i], pose[n], self.goal[i],
+                                            c.steps[i] == 0)
+                ex, ey = wx - pose[n, 0], wy - pose[n, 1]
+                out[n, 3] = np.clip(cy[n] * ex + sy[n] * ey, -POS_CLIP, POS_CLIP)
+                out[n, 4] = np.clip(-sy[n] * ex + cy[n] * ey, -POS_CLIP, POS_CLIP)
+        k = out.shape[1]
+        c.obs[rows, -k:] = out
 
 
 class TrackTask(Task):
