@@ -15,7 +15,7 @@ Two ways in:
 * :func:`inflate` / :meth:`OccupancyGrid.from_cells`: from a boolean grid of solid cells (a
   hand-made or image map), with the gap of a free cell its centre's distance to the nearest
   solid cell's centre minus half a cell, less the radius: the cells blocked by an inflation of
-  ``r`` are those within ``r + res / 2`` of a solid centre.
+  ``r`` are those nearer than ``r + res / 2`` to a solid centre.
 
 Units: metres throughout; ``res`` m per cell.
 """
@@ -140,7 +140,7 @@ class OccupancyGrid:
 
 def inflate(solid: np.ndarray, res: float, radius: float) -> np.ndarray:
     """Cells (bool, True: blocked) a robot of ``radius`` (m) cannot centre on: the solid cells
-    and every cell whose centre lies within ``radius + res / 2`` of a solid cell's centre
+    and every cell whose centre lies nearer than ``radius + res / 2`` to a solid cell's centre
     (outside the grid counts solid)."""
     return ~OccupancyGrid.from_cells(solid, res, (0.0, 0.0), radius).free(0.0)
 

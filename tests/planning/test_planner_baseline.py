@@ -1,0 +1,59 @@
+"""The planning baseline drives navigate episodes to their goals (a few seeds per robot kind)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import wheelgym
+from wheelgym.registration import env_id
+
+
+def _episodes(robot, arena, seeds, **kw):
+    env = gym.make(env_id(robot), task="navigate", arena=arena)
+    pol = wheelgym.baseline(env, planner="auto", **kw)
+    wins = []
+    for s in seeds:
+        obs, _ = env.reset(seed=s)
+        for _ in range(500):
+            obs, _, term, trunc, info = env.step(pol.predict(obs)[0])
+            if term or trunc:
+                break
+        wins.append(bool(info["is_success"]))
+    return wins, pol.navigator
+
+
+@pytest.mark.parametrize("robot,arena", [("ThreeWheel", "maze"), ("DiffDrive", None),
+                                         ("Bicycle", None)])
+def test_planner_reaches_the_goals(robot, arena):
+    wins, nav = _episodes(robot, arena, range(3))
+    assert all(wins), wins
+    st = nav.stats()
+    assert st["plans"] >= 3 and st["failures"] == 0 and st["plan_ms_mean"] > 0
+
+
+def test_vector_env_rows_plan_independently():
+    env = gym.make_vec(env_id("Unicycle"), num_envs=3, task="navigate",
+                       vectorization_mode="vector_entry_point")
+    pol = wheelgym.baseline(env, planner="auto")
+    obs, _ = env.reset(seed=0)
+    done = np.zeros(3, bool)
+    for _ in range(500):
+        obs, _, term, trunc, info = env.step(pol.predict(obs)[0])
+        done |= term & info["is_success"]
+        if done.all():
+            break
+    assert done.all()
+
+
+def test_planner_choice_is_checked():
+    env = gym.make(env_id("Bicycle"), task="navigate")
+    with pytest.raises(ValueError, match="astar"):
+        wheelgym.baseline(env, planner="astar")
+    with pytest.raises(ValueError, match="planner must be one of"):
+        wheelgym.baseline(env, planner="rrt")
+    with pytest.raises(ValueError, match="navigate"):
+        wheelgym.baseline(gym.make(env_id("ThreeWheel"), task="goal"), planner="auto")
+    with pytest.raises(ValueError, match="hybrid"):
+        wheelgym.baseline(gym.make(env_id("ThreeWheel"), task="navigate"), planner="hybrid")
