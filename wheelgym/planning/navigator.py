@@ -12,7 +12,8 @@ policy, which turns its commands into actions. Per row:
    * Robots that turn in place (ThreeWheel, SkidSteer, CasterAGV, DiffDrive, Unicycle):
      :func:`~wheelgym.planning.search.astar` on the cells with at least ``margin`` of gap
      (soft cost below ``pref``), then :func:`~wheelgym.planning.search.shortcut`, then the
-     polyline resampled every ``step`` m.
+     polyline resampled every ``step`` m and its points in narrow places moved toward the
+     middle (:func:`centre`).
    * Cars (Bicycle, Ackermann): :func:`~wheelgym.planning.search.hybrid_astar` with the
      turning radius of :class:`~wheelgym.kinematics.car_tracking.CarTracker` (1.25 ``R_min``),
      heuristic :func:`~wheelgym.planning.search.cost_to_go`; the plan is a Reeds-Shepp path of
@@ -25,9 +26,9 @@ policy, which turns its commands into actions. Per row:
    the others turn toward it (in place beyond 0.6 rad; 0.25 rad where the gap is below
    0.15 m) and drive with ``v cos^2(alpha)``. The carrot moves nearer while the straight line
    to it has less gap than the robot has now (no corner cutting). Speed ``v_cap``, slowed
-   within 1 m of the path's end, where the gap is below 0.15 m (times
-   ``(gap + 0.1) / 0.25``, at least 0.4) and into bends (times ``cos(bend / 2)``, at least
-   0.4, ``bend`` the path's turn over the next metre). Cars: ``CarTracker`` (rear-wheel
+   within 0.5 m of the path's end, where the gap is below 0.2 m (times ``gap / 0.2``, at
+   least 0.25) and, where the gap is below 0.25 m, into bends (times ``cos(bend / 2)``, at
+   least 0.4, ``bend`` the path's turn over the next metre). Cars: ``CarTracker`` (rear-wheel
    feedback forwards and backwards, stopping on each cusp) along the plan.
 4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
    along it for ``stuck_steps`` control steps (cars: ``CarTracker``'s own replans, which call
@@ -59,7 +60,8 @@ from wheelgym.planning.search import (
     shortcut,
 )
 
-__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "resample", "PLANNERS"]
+__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "resample", "centre",
+           "PLANNERS"]
 
 #: ``planner=`` choices: ``"astar"`` (grid A* + smoothing; the robots that turn in place),
 #: ``"hybrid"`` (hybrid A* over Reeds-Shepp primitives; the cars), ``"auto"`` (the robot's).
@@ -101,8 +103,39 @@ def plan_path(grid: OccupancyGrid, start_xy: Any, goal_xy: Any, *, margin: float
         pts = grid.origin + (cells[:, ::-1] + 0.5) * grid.res
         pts = np.vstack([sxy, pts[1:-1], gxy]) if len(pts) > 2 else np.vstack([sxy, gxy])
         pts = shortcut(pts, grid.gap, grid.res, grid.origin, m, pref)
-        return resample(pts, step)
+        return centre(grid, resample(pts, step), pref)
     return None
+
+
+def centre(grid: OccupancyGrid, path: np.ndarray, pref: float, iters: int = 30,
+           step: float = 0.01) -> np.ndarray:
+    """Move the points of ``path`` whose gap is below ``pref`` up the gap's gradient, across
+    the path (``iters`` moves of ``step`` m at most, the ends kept), so that narrow passages
+    are crossed in their middle; a move that would lower a point's gap is not made."""
+    if len(path) < 3:
+        return path
+    gy, gx = np.gradient(grid.gap, grid.res)
+    H, W = grid.gap.shape
+    p = path.copy()
+
+    def look(a: np.ndarray, q: np.ndarray) -> np.ndarray:
+        j = np.clip(np.floor((q[:, 0] - grid.origin[0]) / grid.res).astype(np.int64), 0, W - 1)
+        i = np.clip(np.floor((q[:, 1] - grid.origin[1]) / grid.res).astype(np.int64), 0, H - 1)
+        return a[i, j]
+
+    for _ in range(iters):
+        inner = p[1:-1]
+        gap = look(grid.gap, inner)
+        t = p[2:] - p[:-2]  # the path's direction at each inner point
+        t /= np.maximum(np.hypot(t[:, 0], t[:, 1]), 1e-12)[:, None]
+        g = np.stack([look(gx, inner), look(gy, inner)], axis=1)
+        g -= np.sum(g * t, axis=1)[:, None] * t  # across the path only
+        n = np.hypot(g[:, 0], g[:, 1])
+        move = (gap < pref) & (n > 1e-9)
+        cand = inner + step * g / np.maximum(n, 1e-12)[:, None]
+        ok = move & (look(grid.gap, cand) >= gap)
+        inner[ok] = cand[ok]
+    return p
 
 
 def resample(pts: np.ndarray, step: float) -> np.ndarray:
@@ -156,7 +189,7 @@ class PlanningNavigator:
 
     def __init__(self, core: Any, planner: str = "auto", *, v_cap: float = 1.5,
                  w_cap: float = 3.0,
-                 car_speed: float = 0.8, lookahead: float = 0.5, stray: float = 0.3,
+                 car_speed: float = 1.5, lookahead: float = 0.5, stray: float = 0.3,
                  stuck_steps: int = 60, res: float = 0.05) -> None:
         if planner not in PLANNERS:
             raise ValueError(f"planner must be one of {list(PLANNERS)}, got {planner!r}")
@@ -188,6 +221,8 @@ class PlanningNavigator:
         N = core.num
         self.paths: list[np.ndarray | None] = [None] * N
         self.idx = np.zeros(N, dtype=np.int64)
+        #: plans of each row's current episode (1 + its re-plans)
+        self.row_plans = np.zeros(N, dtype=np.int64)
         self.best_idx = np.zeros(N, dtype=np.int64)
         self.since = np.zeros(N, dtype=np.int64)
         self._goal = np.full((N, 2), np.nan)
@@ -225,6 +260,7 @@ class PlanningNavigator:
         path, _ = plan_car(grid, pose, self._goal[i], self.cars[i].radius)
         self.plan_times.append(time.perf_counter() - t0)
         self.plans += 1
+        self.row_plans[i] += 1
         if path is None:
             self.failures += 1
             return path_from_segments([], self.cars[i].radius, pose)
@@ -238,6 +274,7 @@ class PlanningNavigator:
         path = plan_path(grid, p, self._goal[i], margin=self.margin)
         self.plan_times.append(time.perf_counter() - t0)
         self.plans += 1
+        self.row_plans[i] += 1
         if path is None:
             self.failures += 1
         self.paths[i] = path
@@ -257,6 +294,7 @@ class PlanningNavigator:
         new = (c.steps == 0) | ~np.all(goal == self._goal, axis=1)
         for i in np.flatnonzero(new):
             self._goal[i] = goal[i]
+            self.row_plans[i] = 0
         return np.flatnonzero(new)
 
     # ------------------------------------------------------------------ commands
@@ -312,8 +350,8 @@ class PlanningNavigator:
                 path[min(n - 1, j + 19)]
             bend = abs(math.atan2(a0[0] * a1[1] - a0[1] * a1[0], a0[0] * a1[0] + a0[1] * a1[1]))
             # slower near the goal and where the gap is small
-            v = min(self.v_cap, 0.15 + 0.8 * left) * min(max((here + 0.1) / 0.25, 0.4), 1.0) \
-                * max(0.4, math.cos(0.5 * bend))
+            v = min(self.v_cap, 0.3 + 1.5 * left) * min(max(here / 0.2, 0.25), 1.0) \
+                * (max(0.4, math.cos(0.5 * bend)) if here < 0.25 else 1.0)
             dx, dy = target[0] - p[i, 0], target[1] - p[i, 1]
             cy, sy = math.cos(yaw[i]), math.sin(yaw[i])
             ex, ey = cy * dx + sy * dy, -sy * dx + cy * dy
@@ -335,7 +373,7 @@ class PlanningNavigator:
         c = self.core
         assert self.cars is not None
         for i in self._new_episodes():
-            self.cars[i].reset(c.X[i], (*self._goal[i], 0.0))
+            self.cars[i].reset(c.X[i], (*self._goal[i], 0.0))  # (plans through _car_plan)
         u = np.empty((c.num, c.m))
         for i, car in enumerate(self.cars):
             u[i] = car.action(c.X[i], c.dt)
