@@ -26,8 +26,8 @@ policy, which turns its commands into actions. Per row:
    the others turn toward it (in place beyond 0.6 rad; 0.25 rad where the gap is below
    0.15 m) and drive with ``v cos^2(alpha)``. The carrot moves nearer while the straight line
    to it has less gap than the robot has now (no corner cutting). Speed ``v_cap``, slowed
-   within 0.5 m of the path's end, where the gap is below 0.2 m (times ``gap / 0.2``, at
-   least 0.25) and, where the gap is below 0.25 m, into bends (times ``cos(bend / 2)``, at
+   within 0.5 m of the path's end, where the gap is below 0.15 m (times ``gap / 0.15``,
+   at least 0.3) and, where the gap is below 0.25 m, into bends (times ``cos(bend / 2)``, at
    least 0.4, ``bend`` the path's turn over the next metre). Cars: ``CarTracker`` (rear-wheel
    feedback forwards and backwards, stopping on each cusp) along the plan.
 4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
@@ -226,6 +226,8 @@ class PlanningNavigator:
         self.best_idx = np.zeros(N, dtype=np.int64)
         self.since = np.zeros(N, dtype=np.int64)
         self._goal = np.full((N, 2), np.nan)
+        self._fresh = np.zeros(N, dtype=bool)
+        self._seen: list[Any] = [None] * N  # each row's layout when last asked
         self._world: list[Any] = [None] * N
         self._grids: list[OccupancyGrid | None] = [None] * N
         self._map_grid: OccupancyGrid | None = None
@@ -291,7 +293,13 @@ class PlanningNavigator:
     def _new_episodes(self) -> np.ndarray:
         c = self.core
         goal = c.task.goal[:, :2]
-        new = (c.steps == 0) | ~np.all(goal == self._goal, axis=1)
+        start = c.steps == 0
+        # a new episode (planned once, however often it is asked at step 0) or a new goal
+        new = (start & ~self._fresh) | ~np.all(goal == self._goal, axis=1)
+        worlds = c.task.worlds
+        new |= np.array([w is not v for w, v in zip(worlds, self._seen, strict=True)])
+        self._seen = list(worlds)
+        self._fresh = start
         for i in np.flatnonzero(new):
             self._goal[i] = goal[i]
             self.row_plans[i] = 0
@@ -350,7 +358,7 @@ class PlanningNavigator:
                 path[min(n - 1, j + 19)]
             bend = abs(math.atan2(a0[0] * a1[1] - a0[1] * a1[0], a0[0] * a1[0] + a0[1] * a1[1]))
             # slower near the goal and where the gap is small
-            v = min(self.v_cap, 0.3 + 1.5 * left) * min(max(here / 0.2, 0.25), 1.0) \
+            v = min(self.v_cap, 0.3 + 1.5 * left) * min(max(here / 0.15, 0.3), 1.0) \
                 * (max(0.4, math.cos(0.5 * bend)) if here < 0.25 else 1.0)
             dx, dy = target[0] - p[i, 0], target[1] - p[i, 1]
             cy, sy = math.cos(yaw[i]), math.sin(yaw[i])
