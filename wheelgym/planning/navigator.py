@@ -262,6 +262,7 @@ class PlanningNavigator:
         path, _ = plan_car(grid, pose, self._goal[i], self.cars[i].radius)
         self.plan_times.append(time.perf_counter() - t0)
         self.plans += 1
+        self.replans += int(self.row_plans[i] > 0)  # the tracker's replans of this episode
         self.row_plans[i] += 1
         if path is None:
             self.failures += 1
