@@ -158,3 +158,15 @@ def test_v1_ids_and_unchanged_goal_task(robot):
         act = rng.uniform(-1, 1, a.action_space.shape)
         ra, rb = a.step(act), b.step(act)
         assert np.array_equal(ra[0], rb[0]) and ra[1] == rb[1]
+
+
+def test_v1_compute_reward_matches_the_step_reward():
+    env = _env(1, goal_conditioned=True)
+    obs, _ = env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        obs, r, term, _, info = env.step(rng.uniform(-1, 1, 2))
+        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"],
+                                            info) == pytest.approx(r, abs=1e-12)
+        if term:
+            break
