@@ -34,6 +34,7 @@ sanity limits. Layout by task (the robot's features, listed above, come after th
 |          | preview_{10,20,30}_{x,y}_b (reference 0.5, 1.0, 1.5 s ahead)         | m           |
 |          | vx, vy, wz; robot features                                           | m/s, rad/s  |
 | navigate | as goal, then range_0..range_15 (rays at yaw + 2 pi k / 16, 0-3 m)   | m           |
+| (-v1)    | then goal_dist, cos_bearing, sin_bearing (+ waypoint_x_b, _y_b)      | m, -        |
 
 ## Rewards
 
@@ -153,6 +154,9 @@ there once (the vector env takes the same).
 |                | mode)             | current/voltage limits inside each RK4 stage,           |
 |                |                   | ``wheelgym.models.motor``; parameters in ``params``);   |
 |                |                   | "voltage" mode needs "dc" ("ideal" raises ValueError)   |
+| version        | 0 (-v1 ids: 1)    | the id's version: 1 gives navigate's v1 reward and      |
+|                |                   | observation (docs/topics/planning.md); goal, track same |
+| waypoint_hint  | False             | navigate v1: the planner's next waypoint in the obs     |
 
 Action modes of the dynamic robots (the robot classes' "Action Space" give the scales):
 
