@@ -27,7 +27,7 @@ import numpy as np
 from wheelgym.envs.actuator import MAX_ACTION_DELAY
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
 from wheelgym.integrators import n_substeps
-from wheelgym.registration import DEFAULT_HORIZON
+from wheelgym.registration import DEFAULT_HORIZON, VERSIONS
 from wheelgym.tasks.tasks import TASKS
 
 __all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "MOTORS",
@@ -45,8 +45,6 @@ MAX_CTRL_DT = 1.0
 MAX_SUBSTEPS = 10_000
 #: Motor models of the ``motor`` keyword (``wheelgym.models.motor``).
 MOTORS = ("ideal", "dc")
-#: Env versions (the ids' ``-vN``; :mod:`wheelgym.registration`).
-VERSIONS = (0, 1)
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 

@@ -393,9 +393,8 @@ def her_info_arrays(info: HerInfo, batch: tuple[int, ...], dim: int
 NAVIGATE_V1_WEIGHTS = {"progress": 10.0, "heading": 0.0, "effort": 1.0, "internal_force": 1.0,
                        "success": 20.0, "overspeed": 20.0, "collision": 20.0,
                        "proximity": 1.0, "saturation": 0.0}
-#: The per-step cost columns (each term's value lies in [0, 1]) and the failure ends.
+#: The per-step cost columns (each term's value lies in [0, 1]).
 _COST_TERMS = ("heading", "effort", "internal_force", "proximity", "saturation")
-_FAIL_TERMS = ("overspeed", "collision")
 
 
 def navigate_v1_bound(weights: Mapping[str, float]) -> tuple[float, float]:
