@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import wheelgym
+from wheelgym.planning import grid_from_world
 from wheelgym.registration import env_id
 
 
@@ -57,3 +58,31 @@ def test_planner_choice_is_checked():
         wheelgym.baseline(gym.make(env_id("ThreeWheel"), task="goal"), planner="auto")
     with pytest.raises(ValueError, match="hybrid"):
         wheelgym.baseline(gym.make(env_id("ThreeWheel"), task="navigate"), planner="hybrid")
+
+
+@pytest.mark.parametrize("robot", ["DiffDrive", "Bicycle"])
+def test_planner_replans_when_the_robot_strays(robot):
+    env = gym.make(env_id(robot), task="navigate")
+    pol = wheelgym.baseline(env, planner="auto")
+    obs, _ = env.reset(seed=4)
+    for _ in range(10):
+        obs, *_ = env.step(pol.predict(obs)[0])
+    nav, core = pol.navigator, env.unwrapped.core
+    plans = nav.plans
+    # push the robot sideways, off its path (to a free place), then one step of action 0
+    grid = grid_from_world(core.task.worlds[0], core.task.arena, core.spec.radius)
+    pose = core.X[0, :3].copy()
+    for side in (0.6, -0.6, 0.9, -0.9):
+        p = pose[:2] + side * np.array([-np.sin(pose[2]), np.cos(pose[2])])
+        if grid.gap[grid.cell_of(p)] > 0.1:
+            break
+    core.X[0, :2] = p
+    obs, *_ = env.step(np.zeros(env.action_space.shape))
+    for _ in range(3):
+        obs, _, term, trunc, _ = env.step(pol.predict(obs)[0])
+    assert nav.plans > plans and nav.replans >= 1
+    for _ in range(500):
+        obs, _, term, trunc, info = env.step(pol.predict(obs)[0])
+        if term or trunc:
+            break
+    assert info["is_success"]
