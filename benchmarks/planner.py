@@ -14,7 +14,9 @@ each seed's success rate, with the standard deviation over the seeds; the planne
 its planning time per plan (mean and max, ms, wall clock on this machine, first compile
 excluded by a warm-up plan) and its plans per scored episode (1 + re-plans).
 
-Prints a Markdown table; ``--out FILE`` also writes it.
+Prints a Markdown table; ``--out FILE`` also writes it. ``--cost``: instead, the planning cost
+against the env's own step in one process (``python benchmarks/planner.py --cost --robots
+ThreeWheel Bicycle --arenas random maze``).
 """
 
 from __future__ import annotations
@@ -83,6 +85,35 @@ def warm_up(robot: str) -> None:
         obs = env.step(pol.predict(obs)[0])[0]
 
 
+def cost(robot: str, arena: str) -> str:
+    """Planning cost against the env's step, one process (single env, seeds 1-10, up to 100
+    steps each): us per ``env.step`` and per ``predict`` of both baselines, ms per plan."""
+    env = gym.make(env_id(robot), task="navigate", arena=None if arena == "random" else arena)
+    pol = wheelgym.baseline(env, planner="auto")
+    react = wheelgym.baseline(env)
+    obs, _ = env.reset(seed=0)
+    pol.predict(obs)  # the map's grid and the compiled kernels
+    ts, tp, tr = [], [], []
+    for s in range(1, 11):
+        obs, _ = env.reset(seed=s)
+        for _ in range(100):
+            t0 = time.perf_counter()
+            a = pol.predict(obs)[0]
+            t1 = time.perf_counter()
+            react.predict(obs)
+            t2 = time.perf_counter()
+            obs, _, term, trunc, _ = env.step(a)
+            t3 = time.perf_counter()
+            ts.append(t3 - t2)
+            tp.append(t1 - t0)
+            tr.append(t2 - t1)
+            if term or trunc:
+                break
+    step, plan = np.mean(ts), np.mean(pol.navigator.plan_times[1:])
+    return (f"| {robot} | {arena} | {step * 1e6:.0f} | {np.mean(tp) / step:.1f}x | "
+            f"{np.mean(tr) / step:.1f}x | {plan * 1e3:.1f} ms = {plan / step:.0f} steps |")
+
+
 def main() -> None:
     # the -v0 ids are the ones measured; Gymnasium's notice that -v1 exists is not news here
     warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)
@@ -93,7 +124,16 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=50)
     ap.add_argument("--no-reactive", action="store_true", help="the planner's columns only")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--cost", action="store_true",
+                    help="only the planning cost against the env step (robots x arenas)")
     a = ap.parse_args()
+    if a.cost:
+        print("| robot | arena | env.step us | planner predict | reactive predict | one plan |\n"
+              "|---|---|---|---|---|---|")
+        for robot in a.robots:
+            for arena in a.arenas:
+                print(cost(robot, arena), flush=True)
+        return
     lines = ["| robot | arena | planner success | reactive success | planner collisions / "
              "timeouts | plan ms (mean / max) | plans per episode | target |",
              "|---|---|---|---|---|---|---|---|"]
