@@ -44,7 +44,10 @@ over it: the control period ``ctrl_dt`` is an argument of each controller (defau
   step at the defaults ``k_p = 36 1/s², k_d = 12 1/s`` (0.75-0.82 for inertia ratios 0.8-1.25).
 
 The controller's model may have parameters other than the plant's (robustness tests use a
-20% mismatch).
+20% mismatch). The environments choose it with ``controller_model``: ``"nominal"`` (the
+controller's ``model``: the robot's parameters the environment was built with) or ``"true"``
+(each row's drawn plant parameters, through :meth:`TwistController.row_kernel` and
+:meth:`TrackingController.row_kernel`; ``docs/topics/robustness.md``).
 """
 
 from __future__ import annotations
@@ -477,6 +480,82 @@ def _k_ca_track(X, P, T, R, p, tmax, gains, dt, out, sat):  # pragma: no cover -
     return True
 
 
+# Row-parameter batch kernels: the same per-state pieces with each row's own packed parameters
+# ``P (n, n_p)`` and torque limits ``T (n, m)`` (the ``"true"`` controller model: the plant's
+# parameters row by row, ``docs/topics/robustness.md``); compiled on first use.
+@njit(cache=True)
+def _k_tw_twist_rows(X, C, P, T, kv, dt, mode, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(C)):
+        return False
+    for n in range(X.shape[0]):
+        sat[n] = _tw_twist_one(X[n], C[n], P[n], T[n], kv, dt, mode, out[n])
+    return True
+
+
+@njit(cache=True)
+def _k_tw_track_rows(X, Pz, Tw, R, P, T, kp, kd, dt, mode, out, sat):  # pragma: no cover
+    if not (all_finite(X) and all_finite(Pz) and all_finite(Tw) and all_finite(R)):
+        return False
+    for n in range(X.shape[0]):
+        sat[n] = _tw_track_one(X[n], Pz[n], Tw[n], R[n], P[n], T[n], kp, kd, dt, mode, out[n])
+    return True
+
+
+@njit(cache=True)
+def _k_ss_twist_rows(X, C, P, T, frac, kv, dt, beta, zmax, Z, out, sat):  # pragma: no cover
+    if not (all_finite(X) and all_finite(C)):
+        return False
+    if beta > 0.0 and Z.shape[0] == X.shape[0]:
+        for n in range(X.shape[0]):
+            sat[n] = _ss_twist_pi(X[n], C[n], P[n], T[n], frac, kv, beta, zmax, dt, Z[n],
+                                  out[n])
+    else:
+        for n in range(X.shape[0]):
+            sat[n] = _ss_twist_one(X[n], C[n], P[n], T[n], frac, kv, dt, out[n])
+    return True
+
+
+@njit(cache=True)
+def _k_ss_track_rows(X, Pz, Tw, R, P, T, frac, gains, dt, out, sat):  # pragma: no cover
+    if not (all_finite(X) and all_finite(Pz) and all_finite(Tw) and all_finite(R)):
+        return False
+    for n in range(X.shape[0]):
+        sat[n] = _ss_track_one(X[n], Pz[n], Tw[n], R[n], P[n], T[n], frac, gains, dt, out[n])
+    return True
+
+
+@njit(cache=True)
+def _k_ca_twist_rows(X, C, P, T, kv, dt, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(C)):
+        return False
+    for n in range(X.shape[0]):
+        sat[n] = _ca_twist_one(X[n], C[n], P[n], T[n], kv, dt, out[n])
+    return True
+
+
+@njit(cache=True)
+def _k_ca_track_rows(X, Pz, Tw, R, P, T, gains, dt, out, sat):  # pragma: no cover - compiled
+    if not (all_finite(X) and all_finite(Pz) and all_finite(Tw) and all_finite(R)):
+        return False
+    for n in range(X.shape[0]):
+        sat[n] = _ca_track_one(X[n], Pz[n], Tw[n], R[n], P[n], T[n], gains, dt, out[n])
+    return True
+
+
+def _check_rows(P: Any, T: Any, n: int, n_p: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``P (n, n_p)`` and ``T (n, m)`` as C-contiguous float64 arrays (``ValueError``)."""
+    P = np.ascontiguousarray(P, dtype=np.float64)
+    T = np.ascontiguousarray(T, dtype=np.float64)
+    if P.shape != (n, n_p):
+        raise ValueError(f"params must have shape ({n}, {n_p}) (one packed row per state), "
+                         f"got {P.shape}")
+    if T.shape != (n, m):
+        raise ValueError(f"tau_max must have shape ({n}, {m}), got {T.shape}")
+    if not (np.all(np.isfinite(P)) and np.all(T > 0) and np.all(np.isfinite(T))):
+        raise ValueError("params must be finite and tau_max positive and finite")
+    return P, T
+
+
 @njit(cache=True)
 def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
     for n in range(X.shape[0]):
@@ -739,6 +818,49 @@ class TwistController(_Controller):
         none it is :meth:`torques`."""
         return self._make_kernel(self.integrator)
 
+    def row_kernel(self, params: np.ndarray, tau_max: np.ndarray
+                   ) -> tuple[Any, tuple[Any, ...]]:
+        """:meth:`batch_kernel` with each row's own model: ``kernel(X, C, *args, out, sat)``
+        reads row n's packed parameters ``params[n]`` (the layout of ``model.packed``) and
+        torque limits ``tau_max[n]`` (both C-contiguous float64, bound by reference: the
+        caller may change their values between calls). The ``"true"`` controller model of
+        the environments (``docs/topics/robustness.md``): the plant's parameters row by row.
+        The SkidSteer anti-windup bound ``z_max`` stays the controller model's."""
+        k_v, dt = self.gains.k_v, self.ctrl_dt
+        if self._tw:
+            return _k_tw_twist_rows, (params, tau_max, k_v, dt, self._mode)
+        if self._ca:
+            return _k_ca_twist_rows, (params, tau_max, k_v, dt)
+        beta = self.gains.k_i * dt * dt
+        return _k_ss_twist_rows, (params, tau_max, self._frac, k_v, dt, beta, self._zmax,
+                                  self.integrator)
+
+    def row_torques(self, x: Any, twist_cmd: Any, params: Any, tau_max: Any
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Stateless :meth:`torques` of a batch ``x (n, nx)``, ``twist_cmd (n, k)`` with each
+        row's own packed parameters ``params (n, n_p)`` and torque limits ``tau_max (n, m)``
+        (:meth:`row_kernel`)."""
+        X = np.ascontiguousarray(_batch(x, self.model.state_dim, "x"))
+        C = np.ascontiguousarray(_batch(twist_cmd, self.command_dim, "twist_cmd"))
+        if X.ndim != 2 or C.shape[0] != X.shape[0]:
+            raise ValueError(f"x and twist_cmd must be batches (n, ...) of one n, got "
+                             f"{X.shape} and {C.shape}")
+        n = X.shape[0]
+        P, T = _check_rows(params, tau_max, n, self._p.size, self.model.input_dim)
+        out = np.empty((n, self.model.input_dim))
+        sat = np.empty(n, dtype=np.bool_)
+        kernel, args = self._row_kernel_stateless(P, T)
+        if not kernel(X, C, *args, out, sat):
+            raise ValueError("x and twist_cmd must be finite")
+        return out, sat
+
+    def _row_kernel_stateless(self, P: np.ndarray, T: np.ndarray
+                              ) -> tuple[Any, tuple[Any, ...]]:
+        kernel, args = self.row_kernel(P, T)
+        if not (self._tw or self._ca):  # the proportional loop: no integrator rows
+            args = args[:-1] + (self._z0,)
+        return kernel, args
+
     @property
     def command_dim(self) -> int:
         return 3 if isinstance(self.model, ThreeWheel) else 2
@@ -851,6 +973,36 @@ class TrackingController(_Controller):
         if self._ca:
             return _k_ca_track, (self._p, self._tmax, self._gv, dt)
         return _k_ss_track, (self._p, self._tmax, self._frac, self._gv, dt)
+
+    def row_kernel(self, params: np.ndarray, tau_max: np.ndarray
+                   ) -> tuple[Any, tuple[Any, ...]]:
+        """:meth:`batch_kernel` with each row's own packed parameters ``params (n, n_p)`` and
+        torque limits ``tau_max (n, m)`` (as :meth:`TwistController.row_kernel`)."""
+        g, dt = self.gains, self.ctrl_dt
+        if self._tw:
+            return _k_tw_track_rows, (params, tau_max, g.k_p, g.k_d, dt, self._mode)
+        if self._ca:
+            return _k_ca_track_rows, (params, tau_max, self._gv, dt)
+        return _k_ss_track_rows, (params, tau_max, self._frac, self._gv, dt)
+
+    def row_torques(self, x: Any, ref_pose: Any, ref_twist: Any, ref_twist_rate: Any,
+                    params: Any, tau_max: Any) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`torques` of a batch ``(n, ...)`` with each row's own packed parameters
+        ``params (n, n_p)`` and torque limits ``tau_max (n, m)``."""
+        X = np.ascontiguousarray(_batch(x, self.model.state_dim, "x"))
+        refs = [np.ascontiguousarray(_batch(a, 3, name)) for a, name in
+                ((ref_pose, "ref_pose"), (ref_twist, "ref_twist"),
+                 (ref_twist_rate, "ref_twist_rate"))]
+        if X.ndim != 2 or any(r.shape != (X.shape[0], 3) for r in refs):
+            raise ValueError("x and the reference must be batches (n, ...) of one n")
+        n = X.shape[0]
+        P, T = _check_rows(params, tau_max, n, self._p.size, self.model.input_dim)
+        out = np.empty((n, self.model.input_dim))
+        sat = np.empty(n, dtype=np.bool_)
+        kernel, args = self.row_kernel(P, T)
+        if not kernel(X, *refs, *args, out, sat):
+            raise ValueError("x and the reference must be finite")
+        return out, sat
 
     def torques(self, x: Any, ref_pose: Any, ref_twist: Any, ref_twist_rate: Any
                 ) -> tuple[np.ndarray, np.ndarray]:

@@ -49,6 +49,14 @@ observation), and outputs actions in the env's action space:
 
 Everything is batched over the core's rows with elementwise NumPy (the car-like search: per
 row, its argmin exact, so a batch equals its single robots).
+
+The model the baseline believes in (``model``, ``docs/topics/robustness.md``): ``"nominal"``
+(the default: the parameters the environment was built with, ``core.base_params``, whatever
+``randomize`` or ``perturbation`` draw for the plant: the computed torque's mass, inertia and
+friction, SkidSteer's ``x_icr``, the torque limits and DC motor constants that turn torques
+into actions, the kinematic robots' wheel radius and track) or ``"true"`` (each row's drawn
+plant parameters, ``core.params_rows`` and ``core.P``: privileged, an upper reference). On a
+nominal plant the two give the same actions bit for bit.
 """
 
 from __future__ import annotations
@@ -64,7 +72,10 @@ from wheelgym.envs.core import WheelCore
 # for bit on any CPU (NumPy's own loops depend on the CPU and the array's layout)
 from wheelgym.models import elementwise as ew
 
-__all__ = ["baseline", "BaselinePolicy", "voltage_for_torque"]
+__all__ = ["baseline", "BaselinePolicy", "voltage_for_torque", "BASELINE_MODELS"]
+
+#: The models the baseline may believe in (``BaselinePolicy(model=...)``).
+BASELINE_MODELS = ("nominal", "true")
 
 
 def _sq(a: np.ndarray) -> np.ndarray:
@@ -118,12 +129,22 @@ class BaselinePolicy:
             ``wheelgym.planning.PLANNERS`` (``"auto"``, ``"astar"``, ``"hybrid"``): plan on
             the map and track the plan (:class:`~wheelgym.planning.PlanningNavigator`;
             docs/topics/planning.md); ``planner_kwargs`` go to it.
+        model: ``"nominal"`` (the env's built parameters) or ``"true"`` (each row's drawn
+            plant parameters); module docstring.
     """
 
     def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5,
-                 planner: str | None = None, planner_kwargs: dict[str, Any] | None = None
-                 ) -> None:
+                 planner: str | None = None, planner_kwargs: dict[str, Any] | None = None,
+                 model: str = "nominal") -> None:
+        if model not in BASELINE_MODELS:
+            raise ValueError(f"model must be one of {list(BASELINE_MODELS)}, got {model!r}")
+        #: ``"nominal"`` or ``"true"``: the parameters the baseline computes with.
+        self.model = model
+        self._true = model == "true"
         self.core = core
+        # the nominal row's action bounds (torque limits, or V_s in the voltage mode)
+        _, self._lo_nominal, self._hi_nominal = core.spec.row_params(
+            core.model, core.base_params, core.action_mode)
         #: the planning baseline's navigator (``planner=...``), else None
         self.navigator = None
         if planner is not None:
@@ -191,7 +212,11 @@ class BaselinePolicy:
             pose, tw, rate = c.task.reference_at()
             if not self.holonomic:  # the controller steers the ICR point: shift its reference
                 pose = self._icr_reference(pose)
-            tau, _ = self._track_ctl.torques(c.X, pose, tw, rate)
+            if self._true:
+                tau, _ = self._track_ctl.row_torques(c.X, pose, tw, rate, c.P,
+                                                     self._tau_max_rows())
+            else:
+                tau, _ = self._track_ctl.torques(c.X, pose, tw, rate)
             return self._torque_action(tau)
         if self._cars is not None:
             return self._car_actions()
@@ -236,7 +261,7 @@ class BaselinePolicy:
         pose = c.pose
         goal = c.task.goal.copy()
         navigate = c.task_name == "navigate"
-        x_off = 0.0 if self.holonomic else self.x_icr
+        x_off = 0.0 if self.holonomic else self._param("x_icr", self.x_icr)
         # tracked point P = position + x_off e(yaw) and the goal's
         px = pose[:, 0] + x_off * ew.cos(pose[:, 2])
         py = pose[:, 1] + x_off * ew.sin(pose[:, 2])
@@ -292,7 +317,7 @@ class BaselinePolicy:
         # aim at the reference one control step ahead (the twist acts over the next step)
         ref = c.task.reference_ahead(1)
         pose, tw = ref[:, :3], ref[:, 3:6]
-        x_off = 0.0 if self.holonomic else self.x_icr
+        x_off = 0.0 if self.holonomic else self._param("x_icr", self.x_icr)
         if not self.holonomic:
             pose = self._icr_reference(pose)
         px = c.pose[:, 0] + x_off * ew.cos(c.pose[:, 2])
@@ -318,9 +343,27 @@ class BaselinePolicy:
         """Reference of the tracked point: the CoM reference moved by ``x_icr`` along its
         heading, so that the CoM lands on the reference when the point does (SS-1)."""
         out = pose.copy()
-        out[:, 0] += self.x_icr * ew.cos(pose[:, 2])
-        out[:, 1] += self.x_icr * ew.sin(pose[:, 2])
+        x_icr = self._param("x_icr", self.x_icr)
+        out[:, 0] += x_icr * ew.cos(pose[:, 2])
+        out[:, 1] += x_icr * ew.sin(pose[:, 2])
         return out
+
+    def _param(self, name: str, nominal: Any = None) -> Any:
+        """Parameter ``name`` as the baseline believes it: the base value (``nominal``:
+        given, else ``core.base_params``'), or with ``model="true"`` each row's ``(N,)``."""
+        c = self.core
+        if not self._true:
+            return getattr(c.base_params, name) if nominal is None else nominal
+        if not hasattr(c.base_params, name):  # (x_icr of the robots without one: 0)
+            return nominal
+        return np.array([float(getattr(p, name)) for p in c.params_rows])
+
+    def _tau_max_rows(self) -> np.ndarray:
+        """``model="true"``: each row's motor torque limits ``(N, m)`` (C-contiguous)."""
+        c = self.core
+        if c.voltage:
+            return np.ascontiguousarray(self._motor_rows()["tau_max"])
+        return np.ascontiguousarray(c.HI)
 
     def _to_action(self, cmd: np.ndarray) -> np.ndarray:
         c = self.core
@@ -331,14 +374,18 @@ class BaselinePolicy:
         if spec.tracks_twist(c.action_mode):
             return np.clip(twist / np.asarray(spec.twist_max), -1.0, 1.0)
         if self._twist_ctl is not None:
-            tau, _ = self._twist_ctl.torques(c.X, twist)
+            if self._true:
+                tau, _ = self._twist_ctl.row_torques(c.X, twist, c.P, self._tau_max_rows())
+            else:
+                tau, _ = self._twist_ctl.torques(c.X, twist)
         else:  # CasterAGV: proportional twist loop through the wheel torques (no controller)
-            p = c.params_rows[0]
-            m = p.m_b + 2 * p.m_w + p.m_c
+            P = self._param
+            m = P("m_b") + 2 * P("m_w") + P("m_c")
             f = m / c.dt * 0.5 * (twist[:, 0] - c.twist[:, 0])
-            mz = (p.I_b + m * 0.1**2) / c.dt * 0.5 * (twist[:, 1] - c.twist[:, 2])
-            cc = 0.5 * p.track_width
-            tau = np.stack([p.r * (0.5 * f - 0.5 * mz / cc), p.r * (0.5 * f + 0.5 * mz / cc)],
+            mz = (P("I_b") + m * 0.1**2) / c.dt * 0.5 * (twist[:, 1] - c.twist[:, 2])
+            cc = 0.5 * P("track_width")
+            r = P("r")
+            tau = np.stack([r * (0.5 * f - 0.5 * mz / cc), r * (0.5 * f + 0.5 * mz / cc)],
                            axis=1)
         return self._torque_action(tau)
 
@@ -347,13 +394,24 @@ class BaselinePolicy:
         ``voltage`` mode the voltage (:func:`voltage_for_torque`, of ``V_s``) that applies
         ``tau`` clipped to the torque limits at each motor's current joint speed."""
         c = self.core
+        hi = c.HI if self._true else self._hi_nominal  # the rows' or the nominal bounds
         if not c.voltage:
-            return np.clip(tau / c.HI, -1.0, 1.0)
-        t = self._motor_rows()
+            return np.clip(tau / hi, -1.0, 1.0)
+        t = self._motor_rows() if self._true else self._motor_nominal()
         tau = np.clip(tau, -t["tau_max"], t["tau_max"])  # the torque mode's limits
         v = voltage_for_torque(tau, c.jv, t["gear_ratio"], t["gear_efficiency"], t["k_t"],
                                t["R_w"])
-        return np.clip(v / c.HI, -1.0, 1.0)  # HI: each row's V_s
+        return np.clip(v / hi, -1.0, 1.0)  # hi: V_s
+
+    def _motor_nominal(self) -> dict[str, np.ndarray]:
+        """The motor table of ``core.base_params`` (as :meth:`_motor_rows`' rows)."""
+        if getattr(self, "_mnom", None) is None:
+            p = self.core.base_params
+            tab = p.motor_table()
+            tab["tau_max"] = np.broadcast_to(self.core.spec.input_bounds(p, "torque")[1],
+                                             tab["V_s"].shape)
+            self._mnom = tab
+        return self._mnom
 
     def _motor_rows(self) -> dict[str, np.ndarray]:
         """Per-row motor tables ``(N, m)`` (``Params.motor_table()`` and the torque limits)
@@ -377,20 +435,20 @@ class BaselinePolicy:
 
     def _kinematic_action(self, cmd: np.ndarray) -> np.ndarray:
         c = self.core
-        p = c.params_rows[0]
+        P = self._param
         v, w = cmd[:, 0], cmd[:, 2]
         mode = c.action_mode
         if mode == "WheelSpeeds":
-            r, d = p.wheel_radius, p.track_width
+            r, d = P("wheel_radius"), P("track_width")
             u = np.stack([(v - 0.5 * d * w) / r, (v + 0.5 * d * w) / r], axis=1)
         elif mode == "WheelSpeedHeadingRate":
-            u = np.stack([v / p.wheel_radius, w], axis=1)
+            u = np.stack([v / P("wheel_radius"), w], axis=1)
         elif mode == "VehicleSpeedSteeringAngle":
             vv = np.where(np.abs(v) < 0.05, 0.05, v)
-            u = np.stack([vv, ew.arctan(w * p.wheelbase / vv)], axis=1)
+            u = np.stack([vv, ew.arctan(w * P("wheelbase") / vv)], axis=1)
         elif mode == "VehicleSpeedSteeringRate":
             vv = np.where(np.abs(v) < 0.05, 0.05, v)
-            psi_d = ew.arctan(w * p.wheelbase / vv)
+            psi_d = ew.arctan(w * P("wheelbase") / vv)
             u = np.stack([vv, 4.0 * (psi_d - c.X[:, 3])], axis=1)
         else:  # VehicleSpeedHeadingRate
             u = np.stack([v, w], axis=1)
@@ -399,8 +457,9 @@ class BaselinePolicy:
     def _scale(self, u: np.ndarray) -> np.ndarray:
         """Physical inputs ``u`` onto the action range [-1, 1] (the rows' input bounds)."""
         c = self.core
-        mid = 0.5 * (c.HI + c.LO)
-        half = np.maximum(0.5 * (c.HI - c.LO), 1e-12)
+        lo, hi = (c.LO, c.HI) if self._true else (self._lo_nominal, self._hi_nominal)
+        mid = 0.5 * (hi + lo)
+        half = np.maximum(0.5 * (hi - lo), 1e-12)
         return np.clip((u - mid) / half, -1.0, 1.0)
 
 

@@ -25,13 +25,14 @@ from typing import Any
 import numpy as np
 
 from wheelgym.envs.actuator import MAX_ACTION_DELAY
+from wheelgym.envs.perturbation import Perturbation, parse_perturbation
 from wheelgym.envs.robots import RANDOMIZE_GROUPS, RobotSpec, get_spec
 from wheelgym.integrators import n_substeps
 from wheelgym.registration import DEFAULT_HORIZON, VERSIONS
 from wheelgym.tasks.tasks import TASKS
 
 __all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "MOTORS",
-           "signature_with"]
+           "CONTROLLER_MODELS", "signature_with"]
 
 #: Render modes of the single environment (the vector env offers ``rgb_array`` only).
 RENDER_MODES = ("human", "rgb_array")
@@ -45,6 +46,8 @@ MAX_CTRL_DT = 1.0
 MAX_SUBSTEPS = 10_000
 #: Motor models of the ``motor`` keyword (``wheelgym.models.motor``).
 MOTORS = ("ideal", "dc")
+#: Models the velocity mode's twist controller may believe in (``controller_model``).
+CONTROLLER_MODELS = ("nominal", "true")
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 
@@ -162,6 +165,25 @@ def _check_delay_range(v: Any) -> tuple[int, int]:
     return lo, hi
 
 
+def _check_perturbation(spec: RobotSpec, pert: Perturbation, cfg: Any) -> None:
+    """A perturbation's checks against the other keywords: its groups must be randomisation
+    groups (of some robot), not also drawn by ``randomize``; its delay and lag exclusive with
+    ``action_delay`` (and ``randomize['action_delay']``) and ``actuator_lag``."""
+    bad = [g for g in pert.scales if g not in RANDOMIZE_GROUPS]
+    if bad:
+        raise ValueError(f"perturbation scales: unknown group(s) {bad}; valid groups: "
+                         f"{list(RANDOMIZE_GROUPS)}")
+    both = [g for g in pert.scales if g in cfg.randomize and g in spec.randomize]
+    if both:
+        raise ValueError(f"perturbation scales and randomize both draw {both}: set each group "
+                         f"in one of them")
+    if pert.action_delay != (0, 0) and (cfg.action_delay or "action_delay" in cfg.randomize):
+        raise ValueError("perturbation action_delay and action_delay / "
+                         "randomize['action_delay'] are both set: use one of them")
+    if pert.actuator_lag > 0 and cfg.actuator_lag > 0:
+        raise ValueError("perturbation actuator_lag and actuator_lag are both set: use one")
+
+
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
     """The keyword arguments of every wheelgym environment, validated and normalised.
@@ -208,6 +230,14 @@ class EnvConfig:
             the same in both).
         waypoint_hint: navigate ``version=1``: the planner's next waypoint in the
             observation (an opt-in hint).
+        controller_model: the model the velocity mode's twist controller computes its
+            torques with: ``"nominal"`` (the parameters the env was built with, ``params``;
+            the default) or ``"true"`` (each episode's drawn plant parameters, ``randomize``
+            and ``perturbation``: privileged); one of :data:`CONTROLLER_MODELS`
+            (``docs/topics/robustness.md``).
+        perturbation: None, a :class:`~wheelgym.envs.perturbation.Perturbation`, a dict of
+            its fields or a level name (``"easy"``, ``"medium"``, ``"hard"``); stored as a
+            ``Perturbation`` (``wheelgym.envs.perturbation``).
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -230,6 +260,8 @@ class EnvConfig:
     motor: str | None = None
     version: int = 0
     waypoint_hint: bool = False
+    controller_model: str = "nominal"
+    perturbation: Perturbation | Mapping[str, Any] | str | None = None
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -275,6 +307,13 @@ class EnvConfig:
         put("action_delay", _check_delay("action_delay", self.action_delay))
         put("actuator_lag", _check_number("actuator_lag", self.actuator_lag, 0.0))
         put("motor", _check_motor(spec, self.motor, mode, self.params, self.randomize))
+        if self.controller_model not in CONTROLLER_MODELS:
+            raise ValueError(f"controller_model must be one of {list(CONTROLLER_MODELS)}, got "
+                             f"{self.controller_model!r}")
+        pert = parse_perturbation(self.perturbation)
+        put("perturbation", pert)
+        if pert is not None:
+            _check_perturbation(spec, pert, self)
         if self.reward_weights is not None and not isinstance(self.reward_weights, Mapping):
             raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
         if self.task != "navigate" and self.range_backend != "analytic":

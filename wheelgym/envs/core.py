@@ -31,6 +31,7 @@ import numpy as np
 from wheelgym.envs._dispatch import FasterKernel
 from wheelgym.envs.actuator import k_delay, k_lag
 from wheelgym.envs.config import MAX_CTRL_DT, MAX_SUBSTEPS, EnvConfig
+from wheelgym.envs.perturbation import SignalFaults, resolve_scales
 from wheelgym.envs.robots import RobotSpec, get_spec
 from wheelgym.envs.robots.body import (
     F_COLL,
@@ -152,8 +153,13 @@ class WheelCore:
         self.h = self.dt / self.n_sub
         self._stiff_scale: float | None = None
         self._check_stable(self.base_params, "params")
+        #: The perturbation (``perturbation=``, ``wheelgym.envs.perturbation``) or None.
+        self.perturbation = pert = cfg.perturbation
+        # its parameter scales are drawn with the randomize groups (config checks: no overlap)
         self.randomize = self._check_randomize(
-            {g: r for g, r in cfg.randomize.items() if g != "action_delay"})
+            {**{g: r for g, r in cfg.randomize.items() if g != "action_delay"},
+             **({} if pert is None else
+                resolve_scales(pert, spec.randomize, self.base_params, self.dc))})
         self.obs_noise = cfg.obs_noise
         self.horizon = cfg.horizon
 
@@ -165,9 +171,11 @@ class WheelCore:
             from wheelgym.control.controllers import TwistController
 
             # deadbeat twist loop at this control period (controllers.py module docstring)
-            # (SkidSteer: PI, one integrator per row, zeroed at the row's reset)
+            # (SkidSteer: PI, one integrator per row, zeroed at the row's reset); its model:
+            # the built one ("nominal") or each row's drawn parameters ("true", bound below)
             self.controller = TwistController(self.model, ctrl_dt=self.dt, rows=N)
-            self._bind_controller()
+        #: ``controller_model``: ``"nominal"`` or ``"true"`` (``docs/topics/robustness.md``).
+        self.controller_model = cfg.controller_model
         m = self.model.input_dim
         nx = self.model.state_dim
         nf = len(spec.feat_names)
@@ -194,6 +202,10 @@ class WheelCore:
         self.LH = np.tile(np.concatenate([lo, hi]), (N, 1))
         self.A = np.zeros((N, self.action_dim))  # the normalised actions' shape
         self._init_actuator()
+        if self._velocity:
+            #: the true controller model's per-row torque limits (contiguous copy of HI)
+            self._ctl_T = np.ascontiguousarray(self.LH[:, m:])
+            self._bind_controller()
         # one float block and one flag block per row (few arrays: each array argument of a
         # compiled call costs ~0.25 us); the named attributes are views into them
         lay = layout(m, nf)
@@ -222,6 +234,13 @@ class WheelCore:
                         else -high).astype(np.float32)
         D = len(self.obs_names)
         self.obs = np.zeros((N, D), dtype=np.float32)
+        #: The perturbation's per-step signal faults (noise, dropped and stuck entries) or None.
+        self.faults: SignalFaults | None = None
+        if self.perturbation is not None and self.perturbation.faults:
+            self.faults = SignalFaults(self.perturbation, N, self.action_dim, D)
+        #: Whether a step draws from the rows' generators (a vector env then passes the
+        #: rows that step, :meth:`step`'s ``active``).
+        self.step_draws = self.obs_noise > 0 or self.faults is not None
         self.rngs: Sequence[np.random.Generator] | None = None
         self._track = isinstance(self.task, TrackTask)
 
@@ -317,7 +336,10 @@ class WheelCore:
         """The controller's compiled batch kernel and its arguments (its ``torques`` method
         without the per-call Python checks, which cost ~20x the kernel at N = 1), and (with
         ``buffers``) its scratch buffers."""
-        self._ctl_kernel, self._ctl_args = self.controller.batch_kernel()
+        if self.controller_model == "true":  # each row's packed parameters and limits
+            self._ctl_kernel, self._ctl_args = self.controller.row_kernel(self.P, self._ctl_T)
+        else:
+            self._ctl_kernel, self._ctl_args = self.controller.batch_kernel()
         if not buffers:
             return
         N = self.num
@@ -335,16 +357,20 @@ class WheelCore:
         ``hi`` steps and each row reads its own delay, drawn at its reset."""
         cfg, N = self.config, self.num
         drawn = cfg.randomize.get("action_delay")
+        fixed = cfg.action_delay
+        pert = cfg.perturbation
+        if pert is not None and pert.action_delay != (0, 0):  # (config: not with the above)
+            lo, hi = pert.action_delay
+            drawn, fixed = ((lo, hi), 0) if hi > lo else (None, lo)
         self._delay_range: tuple[int, int] | None = drawn
-        K = cfg.action_delay if drawn is None else drawn[1]
+        K = fixed if drawn is None else drawn[1]
         #: Each row's action delay (control steps).
-        self.delays = np.full(N, cfg.action_delay if drawn is None else drawn[0],
-                              dtype=np.int64)
+        self.delays = np.full(N, fixed if drawn is None else drawn[0], dtype=np.int64)
         self._delay = K > 0
         self._dbuf = np.zeros((N, K + 1, self.action_dim))
         self._dhead = np.zeros(1, dtype=np.int64)
         self._da = np.zeros((N, self.action_dim))
-        T = cfg.actuator_lag
+        T = cfg.actuator_lag or (0.0 if pert is None else pert.actuator_lag)
         self._lag = T > 0
         self._lag_alpha = float(-np.expm1(-self.dt / T)) if T > 0 else 1.0
         self._lag_u = np.zeros((N, self.m))
@@ -488,6 +514,8 @@ class WheelCore:
                 self._draw_params(int(i), rngs[i])
         if self._act_fx:  # action delay / actuator lag: after the parameter draws
             self._reset_actuator(idx, rngs)
+        if self._velocity and self.controller_model == "true":
+            self._ctl_T[idx] = self.HI[idx]  # (P holds the rows' drawn parameters)
         poses = self.task.reset_rows(idx, rngs, opts)
         if self.randomize:  # the start state may depend on each row's drawn parameters
             for n, i in enumerate(idx):
@@ -519,6 +547,8 @@ class WheelCore:
         self._e0[idx] = 0.0
         self.task.evaluate(idx)
         self._noise(idx)
+        if self.faults is not None:
+            self.faults.reset_rows(idx, self.obs)
         return self.obs
 
     def _noise(self, idx: np.ndarray) -> None:
@@ -539,7 +569,8 @@ class WheelCore:
                 clipped; a non-finite entry raises ``ValueError``, a non-real dtype such as
                 strings, complex or bool ``TypeError``).
             active: optional ``(N,)`` bool mask; rows outside it are integrated all the same
-                but draw no observation noise from their generators. A vector env passes the
+                but draw no observation noise (nor the perturbation's per-step draws) from
+                their generators. A vector env passes the
                 rows it resets right after this step (next-step autoreset), so each row's
                 generator is consumed exactly as the single environment's.
 
@@ -559,6 +590,10 @@ class WheelCore:
             a = a.astype(np.float64, copy=False)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
+        if self.faults is not None:  # the perturbation's action noise, drops, stuck entries
+            rows = self.all_rows if active is None else np.flatnonzero(active)
+            self.faults.draw(rows, self.rngs)
+            a = self.faults.actions(a, rows)
         if self._delay:  # action_delay: the action of delays[i] steps ago (zeros at first)
             if not k_delay(a, self._dbuf, self._dhead, self.delays, self._da):
                 raise ValueError("action must be finite (got NaN or inf)")
@@ -590,4 +625,6 @@ class WheelCore:
         self.task.evaluate()
         if self.obs_noise > 0:
             self._noise(self.all_rows if active is None else np.flatnonzero(active))
+        if self.faults is not None:
+            self.faults.observations(self.obs, rows, self.obs_low, self.obs_high)
         return self.obs, self.reward, self.term, self.info_buffers

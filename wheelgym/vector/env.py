@@ -359,7 +359,7 @@ class WheelVectorEnv(VectorEnv):
         if any_rr:
             k_zero_rows(a, rr, self._abuf)
             a = self._abuf
-            if c.obs_noise > 0:
+            if c.step_draws:
                 active = ~rr
         if self.goal_conditioned:
             self._prev_ag = c.task.achieved_goal()
