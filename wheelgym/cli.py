@@ -22,6 +22,8 @@ command                                 what it does
 ``wheelgym demo ID``                    watch (or save a GIF/MP4 of) the baseline driving
                                         (``--agent NAME``: a shipped agent instead)
 ``wheelgym validate``                   the physics validation report
+``wheelgym robustness TARGET``          perturbation sweep of a shipped agent or run: agent
+                                        vs nominal- and true-model baseline vs random
 ======================================= ==================================================
 
 Training commands need the ``train`` extra; ``--ray`` and PostgreSQL storages the ``cluster``
@@ -266,7 +268,27 @@ def _parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
-    for sp in (m, t, e, u, b, r, d, v):
+
+    rb = sub.add_parser("robustness", help="sweep perturbations: agent vs nominal- and "
+                                           "true-model baseline vs random")
+    rb.add_argument("target", metavar="TARGET",
+                    help="a shipped agent's name (agents/pretrained/) or a run folder")
+    rb.add_argument("--episodes", type=_positive_int, default=50,
+                    help="episodes per level and policy, one batch (default 50)")
+    rb.add_argument("--seed", type=_nonneg_int, default=100_000,
+                    help="first seed (default 100000)")
+    rb.add_argument("--axes", default=None,
+                    help="comma-separated axes (default: every axis the robot has)")
+    rb.add_argument("--policies", default=None,
+                    help="comma-separated of agent, baseline-nom, baseline-true, random "
+                         "(default: all)")
+    rb.add_argument("--out", type=Path, default=None,
+                    help="folder of the CSV and figures (default benchmarks/results/robustness)")
+    rb.add_argument("--csv", type=Path, default=None,
+                    help="CSV to append to and resume from (default OUT/robustness.csv)")
+    rb.add_argument("--plots-only", action="store_true",
+                    help="redraw the figures and the summary from the CSV, run nothing")
+    for sp in (m, t, e, u, b, r, d, v, rb):
         _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
     return p
 
@@ -582,6 +604,33 @@ _COMMANDS = {
     "demo": _cmd_demo,
     "validate": _cmd_validate,
 }
+
+
+def _cmd_robustness(a: argparse.Namespace) -> int:
+    from wheelgym.agents import robustness as rob
+
+    out = rob.DEFAULT_OUT if a.out is None else a.out
+    csv_path = out / "robustness.csv" if a.csv is None else a.csv
+
+    def split(text: str | None) -> list[str] | None:
+        return None if text is None else [x.strip() for x in text.split(",") if x.strip()]
+
+    if a.plots_only:
+        name = a.target if not (Path(a.target) / "config.yml").is_file() else Path(a.target).name
+        targets = [name]
+    else:
+        res = rob.sweep(a.target, out=out, csv_path=csv_path, episodes=a.episodes, seed=a.seed,
+                        axes=split(a.axes), policies=split(a.policies) or rob.POLICIES,
+                        log=_print)
+        _print(rob.timing_note(res))
+        targets = [res["target"]]
+    files = rob.plot(csv_path, out, targets)
+    _print(rob.summary_table(csv_path, targets))
+    _print(f"wrote {', '.join(p.name for p in files)} to {out}")
+    return 0
+
+
+_COMMANDS["robustness"] = _cmd_robustness
 
 
 def main(argv: Sequence[str] | None = None) -> int:

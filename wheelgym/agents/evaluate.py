@@ -51,6 +51,7 @@ __all__ = [
     "Episode",
     "run_episode",
     "evaluate_policy_episodes",
+    "run_episodes_vector",
     "summarize",
     "METRICS",
     "format_markdown",
@@ -320,6 +321,90 @@ def evaluate_policy_episodes(
                     deterministic=deterministic)
         for i, s in enumerate(seeds)
     ]
+
+
+def run_episodes_vector(venv: Any, policy: Any, seeds: Sequence[int], *,
+                        deterministic: bool = True) -> list[Episode]:
+    """One episode per sub-env of a native vector env (``num_envs == len(seeds)``), all
+    stepped together with one ``policy.predict`` per step on the batch of observations: sub-env
+    i is reset with ``seeds[i]`` and scored as :func:`run_episode` scores the single env reset
+    with that seed (the same metrics, without traces; ``tests/agents/test_robustness.py``
+    checks that the two agree). ``venv`` must autoreset on the next step (the default): a
+    sub-env that ended keeps stepping but is no longer scored.
+    """
+    n = len(seeds)
+    if getattr(venv, "num_envs", None) != n:
+        raise ValueError(f"run_episodes_vector needs num_envs == len(seeds) = {n}, got "
+                         f"{getattr(venv, 'num_envs', None)}")
+    obs, _ = venv.reset(seed=[int(s) for s in seeds])
+    _reset_policy(policy, int(seeds[0]) if n else 0)
+    core = getattr(venv, "core", None)
+    spec = getattr(core, "spec", None)
+    motors = spec is None or getattr(spec, "n_motor", 1) > 0
+    dt = float(getattr(venv, "dt", 1.0) or 1.0)
+    alive = np.ones(n, dtype=bool)
+    ret = np.zeros(n)
+    length = np.zeros(n, dtype=np.int64)
+    err2 = np.zeros(n)
+    n_err = np.zeros(n, dtype=np.int64)
+    peak = np.full(n, -np.inf)
+    f_sum = np.zeros(n)
+    n_force = np.zeros(n, dtype=np.int64)
+    n_sat = np.zeros(n, dtype=np.int64)
+    energy = np.full(n, np.nan)
+    success = np.zeros(n, dtype=bool)
+    failure = np.zeros(n, dtype=bool)
+    ended_by_task = np.zeros(n, dtype=bool)
+    keys: set[str] = set()
+    state = None
+    start = np.ones(n, dtype=bool)
+    while alive.any():
+        action, state = policy.predict(obs, state=state, episode_start=start,
+                                       deterministic=deterministic)
+        start = np.zeros(n, dtype=bool)
+        obs, reward, terminated, truncated, info = venv.step(action)
+        keys |= set(info)
+        a = alive
+        ret[a] += np.asarray(reward, dtype=np.float64)[a]
+        length[a] += 1
+        if "tracking_error" in info:  # as _pos_error: |e| of a scalar, hypot of (x, y)
+            e = np.asarray(info["tracking_error"], dtype=np.float64).reshape(n, -1)
+            e = np.abs(e[:, 0]) if e.shape[1] == 1 else np.hypot(e[:, 0], e[:, 1])
+            err2[a] += (e * e)[a]
+            n_err[a] += 1
+        if motors and "motor_torque" in info:
+            tau = np.asarray(info["motor_torque"], dtype=np.float64).reshape(n, -1)
+            if tau.shape[1]:
+                peak[a] = np.maximum(peak[a], np.max(np.abs(tau), axis=1)[a])
+        if "internal_force" in info and info["internal_force"] is not None:
+            xf = np.asarray(info["internal_force"], dtype=np.float64).reshape(n, -1)
+            f_sum[a] += np.sqrt(np.sum(xf * xf, axis=1))[a]
+            n_force[a] += 1
+        if "saturated" in info:
+            s_ = np.asarray(info["saturated"]).reshape(n, -1)
+            n_sat[a] += np.any(s_, axis=1)[a]
+        if "energy" in info:
+            energy[a] = np.asarray(info["energy"], dtype=np.float64)[a]
+        if "numerical_failure" in info:
+            failure[a] |= np.asarray(info["numerical_failure"], dtype=bool)[a]
+        done = a & (np.asarray(terminated) | np.asarray(truncated))
+        if "is_success" in info:
+            success[done] = np.asarray(info["is_success"], dtype=bool)[done]
+        ended_by_task[done] = np.asarray(terminated, dtype=bool)[done]
+        alive = a & ~done
+    out = []
+    for i, sd in enumerate(seeds):
+        L = int(length[i])
+        out.append(Episode(
+            seed=int(sd), ret=float(ret[i]), length=L,
+            success=bool(success[i]) if "is_success" in keys else None,
+            rms_tracking_error=math.sqrt(err2[i] / n_err[i]) if n_err[i] else None,
+            energy=None if math.isnan(energy[i]) else float(energy[i]),
+            peak_torque=float(peak[i]) if np.isfinite(peak[i]) else None,
+            mean_internal_force=f_sum[i] / n_force[i] if n_force[i] else None,
+            saturation=n_sat[i] / L if "saturated" in keys and L else None,
+            numerical_failure=bool(failure[i]), terminated=bool(ended_by_task[i]), dt=dt))
+    return out
 
 
 def summarize(episodes: Sequence[Episode]) -> dict[str, tuple[float, float] | None]:

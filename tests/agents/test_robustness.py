@@ -1,0 +1,91 @@
+"""``wheelgym robustness``: the batched evaluation, the sweep's CSV (resumable) and figures."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import pytest
+
+import wheelgym  # noqa: F401  (registers the ids)
+from wheelgym.agents import robustness as rob
+from wheelgym.agents.evaluate import run_episode, run_episodes_vector
+from wheelgym.cli import main
+from wheelgym.envs.baseline import baseline
+
+AGENT = "DiffDrive-goal-VehicleSpeedHeadingRate"
+
+
+@pytest.mark.parametrize("robot,task,mode,pert", [
+    ("DiffDrive", "goal", "VehicleSpeedHeadingRate", "medium"),
+    ("ThreeWheel", "track", "torque", {"scales": {"mass": (1.3, 1.3)}, "action_delay": 1}),
+])
+def test_vector_evaluation_equals_single_episodes(robot, task, mode, pert):
+    """run_episodes_vector scores sub-env i as run_episode scores the single env with seed i
+    (the baseline is batched bit for bit)."""
+    seeds = [7, 8, 9]
+    kw = dict(task=task, action_mode=mode, perturbation=pert, max_episode_steps=60)
+    venv = gym.make_vec(f"wheelgym/{robot}-v0", num_envs=3,
+                        vectorization_mode="vector_entry_point", **kw)
+    batch = run_episodes_vector(venv, baseline(venv), seeds)
+    venv.close()
+    env = gym.make(f"wheelgym/{robot}-v0", **kw)
+    for s, b in zip(seeds, batch, strict=True):
+        e = run_episode(env, baseline(env), s, record=False)
+        for attr in ("ret", "length", "success", "rms_tracking_error", "energy", "peak_torque",
+                     "mean_internal_force", "saturation", "numerical_failure", "terminated"):
+            assert getattr(e, attr) == getattr(b, attr), (s, attr)
+    env.close()
+
+
+def test_sweep_resumes_and_plots(tmp_path):
+    kw = dict(out=tmp_path, episodes=2, axes=["action_delay", "mass"],
+              policies=("agent", "baseline-nom"))
+    loaded = rob.load_target(AGENT)
+    r1 = rob.sweep(AGENT, loaded=loaded, **kw)
+    # DiffDrive has no mass group: only the delay axis, 5 levels x 2 policies
+    assert r1["ran"] == 10 and r1["skipped"] == 0
+    rows = rob.read_rows(r1["csv"])
+    assert [r["level"] for r in rows[::2]] == ["0", "1", "2", "3", "5"]
+    assert all(r["status"] == "ok" for r in rows)
+    r2 = rob.sweep(AGENT, loaded=loaded, **kw)
+    assert r2["ran"] == 0 and r2["skipped"] == 10
+    # drop the last row: only it runs again, with the same numbers
+    lines = r1["csv"].read_text().splitlines(keepends=True)
+    r1["csv"].write_text("".join(lines[:-1]))
+    r3 = rob.sweep(AGENT, loaded=loaded, **kw)
+    assert r3["ran"] == 1
+    again = rob.read_rows(r1["csv"])
+    assert len(again) == 10
+    keep = ("success", "energy", "return", "length")
+    assert [again[-1][k] for k in keep] == [rows[-1][k] for k in keep]
+    files = rob.plot(r1["csv"])
+    assert {p.name for p in files} == {f"{AGENT}-success.png"}  # goal, kinematic: no rms/energy
+    assert "action_delay" in rob.summary_table(r1["csv"])
+
+
+def test_cli_robustness(tmp_path, capsys):
+    rc = main(["robustness", AGENT, "--episodes", "2", "--axes", "combined", "--policies",
+               "baseline-nom,baseline-true,random", "--out", str(tmp_path)])
+    assert rc == 0
+    with (tmp_path / "robustness.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["level"] for r in rows} == {"none", "easy", "medium", "hard"}
+    assert {r["policy"] for r in rows} == {"baseline-nom", "baseline-true", "random"}
+    # the nominal plant: the nominal and the true model agree exactly
+    none = {r["policy"]: r for r in rows if r["level"] == "none"}
+    assert none["baseline-nom"]["return"] == none["baseline-true"]["return"]
+    (tmp_path / f"{AGENT}-success.png").unlink()
+    assert main(["robustness", AGENT, "--plots-only", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / f"{AGENT}-success.png").is_file()
+    assert main(["robustness", AGENT, "--axes", "weight", "--out", str(tmp_path)]) == 2
+    assert "valid axes" in capsys.readouterr().err
+
+
+def test_axes_per_robot():
+    _, _, cfg = rob.load_target(AGENT)
+    names = [a.name for a in rob.applicable_axes(cfg)]
+    assert "wheel_radius" in names and "mass" not in names and "combined" in names
+    for a in rob.AXES.values():  # each axis holds its nominal level
+        assert ("none" if a.name == "combined" else 0.0 if a.unit in ("steps", "s", "m")
+                or a.name.startswith(("obs", "action")) else 1.0) in a.levels, a.name
