@@ -157,6 +157,14 @@ there once (the vector env takes the same).
 | version        | 0 (-v1 ids: 1)    | the id's version: 1 gives navigate's v1 reward and      |
 |                |                   | observation (docs/topics/planning.md); goal, track same |
 | waypoint_hint  | False             | navigate v1: the planner's next waypoint in the obs     |
+| controller_model | "nominal"       | velocity mode: the twist controller's model, "nominal"  |
+|                |                   | (the built parameters, whatever randomize/perturbation  |
+|                |                   | draw) or "true" (each episode's drawn parameters);      |
+|                |                   | docs/topics/robustness.md                               |
+| perturbation   | None              | a ``Perturbation``, a dict of its fields or a level     |
+|                |                   | ("easy", "medium", "hard"): parameter scales, delay,    |
+|                |                   | lag, noise, dropped/stuck actions and observations      |
+|                |                   | (``wheelgym.envs.perturbation``)                        |
 
 Action modes of the dynamic robots (the robot classes' "Action Space" give the scales):
 
