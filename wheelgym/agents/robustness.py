@@ -351,10 +351,23 @@ def plot(csv_path: str | Path, out: str | Path | None = None,
             fig.suptitle(f"{name}: {label}", fontsize=8)
             fig.tight_layout()
             path = out / f"{name}-{col}.png"
-            fig.savefig(path)
+            _save_small(fig, path)
             plt.close(fig)
             files.append(path)
     return files
+
+
+def _save_small(fig: Any, path: Path) -> None:
+    """The figure as a PNG of a 64-colour palette (a third of the RGBA file's size)."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    buf.seek(0)
+    with Image.open(buf) as im:
+        im.convert("RGB").quantize(colors=64).save(path, optimize=True)
 
 
 def summary_table(csv_path: str | Path, targets: Sequence[str] | None = None) -> str:
