@@ -95,6 +95,8 @@ def test_parse_and_errors():
                   perturbation={"scales": {"mass": (1, 2)}})
     with pytest.raises(ValueError, match="both set"):
         WheelCore("ThreeWheel", 1, action_delay=1, perturbation={"action_delay": 2})
+    with pytest.raises(ValueError, match="perturbation scales .* drawn as randomize"):
+        WheelCore("ThreeWheel", 1, perturbation={"scales": {"caster_trail": (0.01, 0.01)}})
     with pytest.raises(ValueError, match="controller_model must be one of"):
         WheelCore("ThreeWheel", 1, action_mode="velocity", controller_model="exact")
     with pytest.raises(ValueError, match="model must be one of"):

@@ -156,10 +156,16 @@ class WheelCore:
         #: The perturbation (``perturbation=``, ``wheelgym.envs.perturbation``) or None.
         self.perturbation = pert = cfg.perturbation
         # its parameter scales are drawn with the randomize groups (config checks: no overlap)
-        self.randomize = self._check_randomize(
-            {**{g: r for g, r in cfg.randomize.items() if g != "action_delay"},
-             **({} if pert is None else
-                resolve_scales(pert, spec.randomize, self.base_params, self.dc))})
+        scales = {} if pert is None else resolve_scales(pert, spec.randomize, self.base_params,
+                                                         self.dc)
+        try:
+            self.randomize = self._check_randomize(
+                {**{g: r for g, r in cfg.randomize.items() if g != "action_delay"}, **scales})
+        except ValueError as exc:
+            if not scales:
+                raise
+            raise ValueError(f"{exc} (perturbation scales {scales} are drawn as randomize "
+                             f"ranges)") from None
         self.obs_noise = cfg.obs_noise
         self.horizon = cfg.horizon
 
