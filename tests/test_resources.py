@@ -62,13 +62,13 @@ def test_the_current_folder_never_takes_over(tmp_path, monkeypatch):
 
 
 def test_a_bad_config_argument_names_the_argument_and_the_choices(tmp_path):
-    with pytest.raises(ValueError, match=r"--config 'ThreeWheel-goal-velcity': no such file and "
-                                         r"no shipped config.*did you mean "
+    with pytest.raises(ValueError, match=r"--config 'ThreeWheel-goal-velcity': file not found "
+                                         r"and no shipped config.*did you mean "
                                          r"'ThreeWheel-goal-velocity'.*shipped names: "
                                          r"Ackermann-goal-.*Unicycle-track-"):
         resources.config_path("ThreeWheel-goal-velcity", "--config")
-    with pytest.raises(ValueError, match=r"CONFIG 'nowhere/ThreeWheel-goal-velocity.yml': no "
-                                         r"such file \(the shipped config of that name is "
+    with pytest.raises(ValueError, match=r"CONFIG 'nowhere/ThreeWheel-goal-velocity.yml': file "
+                                         r"not found \(the shipped config of that name is "
                                          r"'ThreeWheel-goal-velocity', without a folder\)"):
         resources.config_path("nowhere/ThreeWheel-goal-velocity.yml")
     with pytest.raises(ValueError, match="is a folder"):
@@ -89,7 +89,7 @@ def test_the_cli_resolves_config_names(capsys, tmp_path, monkeypatch):
                  ["benchmark", "Nope"], ["configs", "Nope"]):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
-        assert "'Nope': no such file" in err and resources.DEFAULT_CONFIG in err, (argv, err)
+        assert "'Nope': file not found" in err and resources.DEFAULT_CONFIG in err, (argv, err)
     assert not list(tmp_path.iterdir())  # nothing written on a bad argument
 
 

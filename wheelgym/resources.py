@@ -138,7 +138,7 @@ def config_path(config: str | Path, argument: str = "CONFIG") -> Path:
     hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
     if not bare and name in names:
         hint = f" (the shipped config of that name is {name!r}, without a folder)"
-    kind = "no such file" if not bare else "no such file and no shipped config of that name"
+    kind = "file not found" if not bare else "file not found and no shipped config of that name"
     raise ValueError(f"{argument} {str(config)!r}: {kind}{hint}; give a config file path or "
                      f"one of the shipped names: {', '.join(names)}")
 
