@@ -111,7 +111,7 @@ RMS_FACTOR = 2.0
 
 
 def default_configs() -> list[Path]:
-    """Every ``*.yml`` file in ``configs/``, sorted."""
+    """Every shipped config (:func:`wheelgym.resources.configs_dir`), sorted."""
     return sorted(configs_dir().glob("*.yml"))
 
 
