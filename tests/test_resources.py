@@ -61,6 +61,18 @@ def test_the_current_folder_never_takes_over(tmp_path, monkeypatch):
     assert resources.config_path("mine.yml") == Path("mine.yml")
 
 
+def test_a_configs_folder_in_the_current_folder_does_not_take_over_the_benchmark(tmp_path,
+                                                                                 monkeypatch):
+    pytest.importorskip("stable_baselines3")
+    from wheelgym.agents.benchmark import DEFAULT_CSV, default_configs
+
+    (tmp_path / "configs").mkdir()
+    (tmp_path / "configs" / "Mine-goal-x.yml").write_text("x: 1\n")
+    monkeypatch.chdir(tmp_path)
+    assert default_configs() == sorted((ROOT / "configs").glob("*.yml"))
+    assert DEFAULT_CSV == ROOT / "benchmarks" / "results" / "training.csv"
+
+
 def test_a_bad_config_argument_names_the_argument_and_the_choices(tmp_path):
     with pytest.raises(ValueError, match=r"--config 'ThreeWheel-goal-velcity': file not found "
                                          r"and no shipped config.*did you mean "
