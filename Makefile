@@ -7,9 +7,9 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-slow lint bench validate clean-venv
+.PHONY: run test test-slow lint bench validate clean-venv wheel-smoke
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml setup.py
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	# The CPU build of torch first: an unpinned torch would pull a multi-GB CUDA build.
@@ -38,6 +38,10 @@ bench: $(STAMP)
 
 validate: $(STAMP)
 	$(PY) -m wheelgym.validate
+
+# Build the wheel, install it in a fresh venv, run the main job from an empty folder (CI).
+wheel-smoke: $(STAMP)
+	VENV_PY=$(PY) bash .ci/wheel-smoke
 
 clean-venv:
 	rm -rf $(VENV)

@@ -28,7 +28,7 @@ import pytest
 PKG = Path(__file__).resolve().parents[1] / "wheelgym"
 
 RANK = {
-    "_numba_cache": 0, "integrators": 0, "registration": 0, "safe_yaml": 0,
+    "_numba_cache": 0, "integrators": 0, "registration": 0, "resources": 0, "safe_yaml": 0,
     "models": 1, "kinematics": 2, "control": 3, "world": 4, "planning": 4.5, "tasks": 5,
     "render": 6,
     "envs": 7, "vector": 8, "agents": 9, "validate": 10, "cli": 10, "warmup": 10,

@@ -20,6 +20,17 @@ def test_ci_runs_the_readme_test_command() -> None:
     assert "make test" in ci and "make test" in readme
 
 
+def test_ci_runs_the_wheel_smoke_test_after_the_suite() -> None:
+    lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()]
+    assert lines.index("bash .ci/wheel-smoke") > lines.index("make test")
+    smoke = (ROOT / ".ci" / "wheel-smoke").read_text(encoding="utf-8")
+    assert '"torch==2.13.0"' in smoke  # the CPU build first, before the wheel's extras
+    for command in ("wheelgym main --total-timesteps 4096", "wheelgym pretrained list",
+                    "wheelgym evaluate --pretrained ThreeWheel-goal-velocity --episodes 2",
+                    'gym.make("wheelgym:wheelgym/ThreeWheel-v0")'):
+        assert command in smoke, command
+
+
 def test_make_test_compiles_the_kernels_before_the_suite() -> None:
     lines = [ln.strip() for ln in (ROOT / "Makefile").read_text(encoding="utf-8").splitlines()]
     body = lines[lines.index("test: $(STAMP)") + 1:][:2]

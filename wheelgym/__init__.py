@@ -5,6 +5,15 @@ subpackages (``wheelgym.models``, ``wheelgym.control``, ``wheelgym.envs``, ...) 
 first attribute access, so ``wheelgym.baseline(env)`` (the analytic baseline policy,
 :mod:`wheelgym.envs.baseline`) works after a bare ``import wheelgym`` without loading numba or
 the models at start-up.
+
+Gymnasium 1.x reads no plugin entry points, so a process that has not imported wheelgym makes
+its envs through the module prefix, which imports it first::
+
+    gym.make("wheelgym:wheelgym/ThreeWheel-v0")            # no `import wheelgym` needed
+    gym.make_vec("wheelgym:wheelgym/ThreeWheel-v0", num_envs=8)
+
+The same prefix lets subprocess workers that start fresh (``spawn``/``forkserver``: SB3's
+``SubprocVecEnv``, Gymnasium's ``AsyncVectorEnv``) register the ids themselves.
 """
 
 from __future__ import annotations
@@ -29,6 +38,7 @@ SUBMODULES = (
     "models",
     "registration",
     "render",
+    "resources",
     "tasks",
     "validate",
     "vector",
@@ -39,7 +49,7 @@ __all__ = ["__version__", "baseline", "register_envs", *SUBMODULES]
 
 
 def register_envs() -> None:
-    """Register the ``wheelgym/<Robot>-v0`` ids (also the ``gymnasium.envs`` entry point)."""
+    """Register the ``wheelgym/<Robot>-v0`` ids (done on ``import wheelgym``; idempotent)."""
     from wheelgym.registration import register_envs as _register
 
     _register()

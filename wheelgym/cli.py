@@ -24,7 +24,12 @@ command                                 what it does
 ``wheelgym validate``                   the physics validation report
 ``wheelgym robustness TARGET``          perturbation sweep of a shipped agent or run: agent
                                         vs nominal- and true-model baseline vs random
+``wheelgym configs [NAME]``             the shipped configs' names, or one config's YAML
 ======================================= ==================================================
+
+A ``CONFIG`` argument is a config file, or the name of a shipped config
+(``ThreeWheel-goal-velocity``; :mod:`wheelgym.resources`): a file given by path wins, the
+current folder is never searched. Output folders default to ``runs/`` in the current folder.
 
 Training commands need the ``train`` extra; ``--ray`` and PostgreSQL storages the ``cluster``
 extra.
@@ -48,6 +53,8 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+
+from wheelgym import resources
 
 __all__ = ["main"]
 
@@ -118,22 +125,24 @@ def _parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("main", help="train the default agent, evaluate it, print the table")
     m.add_argument("--config", type=Path, default=None,
-                   help="config file (default: configs/ThreeWheel-goal-velocity.yml)")
+                   help="config file or shipped config name (default: "
+                        f"{resources.DEFAULT_CONFIG}; see `wheelgym configs`)")
     m.add_argument("--total-timesteps", type=_positive_int, default=None)
     m.add_argument("--seed", type=_nonneg_int, default=None)
     m.add_argument("--episodes", type=_positive_int, default=50,
                    help="evaluation episodes per policy (default 50)")
-    m.add_argument("--runs-root", type=Path, default=Path("runs"))
+    m.add_argument("--runs-root", type=Path, default=resources.runs_dir())
     m.add_argument("--no-progress", action="store_true")
 
     t = sub.add_parser("train", help="train an SB3 agent from a YAML config")
-    t.add_argument("config", nargs="?", type=Path, help="YAML config (see configs/)")
+    t.add_argument("config", nargs="?", type=Path,
+                   help="config file or shipped config name (see `wheelgym configs`)")
     t.add_argument("--seed", type=_nonneg_int, default=None, help="override the config's seed")
     t.add_argument("--total-timesteps", type=_positive_int, default=None,
                    help="override n_timesteps (with --resume: the new total)")
     t.add_argument("--run-dir", type=Path, default=None,
                    help="run folder to create (default runs/<name>-s<seed>-<time>)")
-    t.add_argument("--runs-root", type=Path, default=Path("runs"))
+    t.add_argument("--runs-root", type=Path, default=resources.runs_dir())
     t.add_argument("--resume", type=Path, default=None, metavar="RUN",
                    help="continue this run folder instead of starting one")
     t.add_argument("--no-progress", action="store_true")
@@ -154,7 +163,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="output folder (default RUN/eval, or runs/pretrained-eval/NAME)")
 
     u = sub.add_parser("tune", help="hyperparameter search with Optuna (writes the best config)")
-    u.add_argument("config", nargs="?", type=Path, help="YAML config to tune (see configs/)")
+    u.add_argument("config", nargs="?", type=Path,
+                   help="config file or shipped config name to tune (see `wheelgym configs`)")
     u.add_argument("--trials", type=_positive_int, default=None,
                    help="trials this call runs (default 20; unlimited with --timeout)")
     u.add_argument("--timesteps", type=_positive_int, default=None,
@@ -176,7 +186,7 @@ def _parser() -> argparse.ArgumentParser:
                         "silent for 4x that is marked failed by the next worker")
     u.add_argument("--study-name", default=None,
                    help="study to create or continue (default <Robot>-<task>-<mode>-<algo>)")
-    u.add_argument("--runs-root", type=Path, default=Path("runs/tune"),
+    u.add_argument("--runs-root", type=Path, default=resources.runs_dir("tune"),
                    help="study folders (trial runs, study.db, best.yml) go here")
     u.add_argument("--seed", type=_nonneg_int, default=0,
                    help="sampler seed; trial n trains with seed + n")
@@ -199,8 +209,9 @@ def _parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("benchmark", help="results table: configs x seeds vs baseline/random")
     b.add_argument("configs", nargs="*", type=Path,
-                   help="config files (default: every file in configs/); with --table or "
-                        "--curves: the configs to show (default all in the CSV)")
+                   help="config files or shipped config names (default: every shipped "
+                        "config); with --table or --curves: the configs to show (default all "
+                        "in the CSV)")
     b.add_argument("--quick", action="store_true",
                    help="1 seed, a tenth of each budget, 5 episodes")
     b.add_argument("--seeds", type=_positive_int, default=None, help="seeds per config (3)")
@@ -217,7 +228,8 @@ def _parser() -> argparse.ArgumentParser:
                         "or HOST:PORT of a head node; needs the cluster extra")
     b.add_argument("--csv", type=Path, default=None,
                    help="results CSV, appended row by row; rows present are skipped "
-                        "(default benchmarks/results/training.csv)")
+                        "(default: a checkout's benchmarks/results/training.csv, else "
+                        "runs/benchmark/training.csv)")
     b.add_argument("--drop-stale", action="store_true",
                    help="remove the CSV's rows of the configs given that were made with other "
                         "settings than their files now have (column config_sha), and, without "
@@ -230,7 +242,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="train nothing: score the CSV's rows (of the configs given; default "
                         "all) again from their run folders, after a change to the evaluation, "
                         "and replace their score columns")
-    b.add_argument("--runs-root", type=Path, default=Path("runs/benchmark"))
+    b.add_argument("--runs-root", type=Path, default=resources.runs_dir("benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
     b.add_argument("--readme", type=Path, default=None, metavar="README.md",
                    help="also put the table between the results markers of this file")
@@ -244,9 +256,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="export: the configs (names or files) to export, those that met their "
                         "targets (default: every config in the CSV)")
     r.add_argument("--csv", type=Path, default=None,
-                   help="export: results CSV (default benchmarks/results/training.csv)")
+                   help="export: results CSV (default as for `wheelgym benchmark`)")
     r.add_argument("--root", type=Path, default=None,
-                   help="folder of agents (default agents/pretrained, or $WHEELGYM_PRETRAINED)")
+                   help="folder of agents (default $WHEELGYM_PRETRAINED, else the shipped "
+                        "agents; export: a checkout's agents/pretrained)")
     r.add_argument("--size-limit", type=_positive_float, default=None, metavar="MB",
                    help="export: refuse to make the folder larger than this (default 15)")
 
@@ -264,7 +277,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--episodes", type=_positive_int, default=1)
     d.add_argument("--out", type=Path, default=None,
                    help="save instead of opening a window: .gif, .mp4, or a folder of PNGs "
-                        "(the default without a display: demo-<ID>.gif)")
+                        "(the default without a display: runs/demo/<ID>.gif)")
 
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
@@ -288,7 +301,11 @@ def _parser() -> argparse.ArgumentParser:
                     help="CSV to append to and resume from (default OUT/robustness.csv)")
     rb.add_argument("--plots-only", action="store_true",
                     help="redraw the figures and the summary from the CSV, run nothing")
-    for sp in (m, t, e, u, b, r, d, v, rb):
+    c = sub.add_parser("configs", help="list the shipped configs, or print one (to copy and "
+                                       "edit: wheelgym configs NAME > my.yml)")
+    c.add_argument("name", nargs="?", default=None, metavar="NAME",
+                   help="print this config's YAML instead of the list")
+    for sp in (m, t, e, u, b, r, d, v, rb, c):
         _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
     return p
 
@@ -311,7 +328,9 @@ def _cmd_train(a: argparse.Namespace) -> int:
                         progress=not a.no_progress, verbose=a.verbose)
     else:
         if a.config is None:
-            raise ValueError("give a CONFIG file (see configs/) or --resume RUN")
+            raise ValueError("give a CONFIG (a file or a shipped name, see `wheelgym configs`) "
+                             "or --resume RUN")
+        a.config = resources.config_path(a.config, "CONFIG")
         result = train(a.config, seed=a.seed, total_timesteps=a.total_timesteps,
                        run_dir=a.run_dir, runs_root=a.runs_root, progress=not a.no_progress,
                        verbose=a.verbose)
@@ -332,7 +351,7 @@ def _cmd_evaluate(a: argparse.Namespace) -> int:
 
         agent, config = load_pretrained(a.pretrained)
         name = Path(config.source).parent.name
-        out = a.out if a.out is not None else Path("runs/pretrained-eval") / name
+        out = a.out if a.out is not None else resources.runs_dir("pretrained-eval", name)
         res = evaluate_agent(agent, config, out, episodes=a.episodes, seed=a.seed,
                              video=a.video, label=f"pretrained {name}")
     elif a.run is None:
@@ -353,8 +372,9 @@ def _cmd_main(a: argparse.Namespace) -> int:
     from wheelgym.agents.evaluate import evaluate_run
     from wheelgym.agents.train import train
 
-    path = a.config if a.config is not None else default_config_path()
-    config = load_config(path)
+    path = (resources.config_path(a.config, "--config") if a.config is not None
+            else default_config_path())
+    config = load_config(path, "--config")
     steps = a.total_timesteps or config.n_timesteps
     _print(f"wheelgym main: training {config.algo.upper()} on {config.env_id} "
            f"{config.env_kwargs} for {steps} steps ({path})")
@@ -393,7 +413,9 @@ def _cmd_tune(a: argparse.Namespace) -> int:
         _print(f"wrote the best config of study {a.export!r} to {path}")
         return 0
     if a.config is None:
-        raise ValueError("give a CONFIG file (see configs/) or --export NAME")
+        raise ValueError("give a CONFIG (a file or a shipped name, see `wheelgym configs`) or "
+                         "--export NAME")
+    a.config = resources.config_path(a.config, "CONFIG")
     tune(a.config, trials=a.trials, timesteps=a.timesteps, timeout=a.timeout, storage=a.storage,
          study_name=a.study_name, runs_root=a.runs_root, seed=a.seed, algo=a.algo,
          metric=a.metric, pruner=a.pruner, n_evals=a.evals, eval_episodes=a.eval_episodes,
@@ -456,7 +478,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
             return 0
         table = format_table([r for r in rows if not names or r["config"] in names])
     else:
-        table = run_benchmark(a.configs or None, quick=a.quick, seeds=a.seeds,
+        configs = [resources.config_path(p, "CONFIGS") for p in a.configs]
+        table = run_benchmark(configs or None, quick=a.quick, seeds=a.seeds,
                               episodes=a.episodes, budget=a.budget, runs_root=a.runs_root,
                               csv_path=csv_path, workers=a.workers, ray=a.ray,
                               drop_stale=a.drop_stale, log=_print)
@@ -568,7 +591,9 @@ def _cmd_demo(a: argparse.Namespace) -> int:
                    f"success {ep.success}")
         if human:
             return 0
-        out = a.out or Path(f"demo-{env_id.split('/')[-1]}.gif")
+        out = a.out or resources.runs_dir("demo", f"{env_id.split('/')[-1]}.gif")
+        if a.out is None:
+            out.parent.mkdir(parents=True, exist_ok=True)
         fps = float(env.metadata.get("render_fps", 0) or 20)
     finally:
         env.close()
@@ -582,6 +607,18 @@ def _cmd_demo(a: argparse.Namespace) -> int:
         for i, f in enumerate(frames):
             Image.fromarray(f).save(out / f"frame_{i:05d}.png")
         _print(f"wrote {len(frames)} PNG frames to {out}")
+    return 0
+
+
+def _cmd_configs(a: argparse.Namespace) -> int:
+    if a.name is not None:
+        path = resources.config_path(a.name, "NAME")
+        sys.stdout.write(path.read_text(encoding="utf-8"))
+        return 0
+    for name in resources.config_names():
+        _print(name)
+    print(f"({len(resources.config_names())} configs in {resources.configs_dir()}; "
+          "`wheelgym configs NAME > my.yml` copies one to edit)", file=sys.stderr)
     return 0
 
 
@@ -603,6 +640,7 @@ _COMMANDS = {
     "pretrained": _cmd_pretrained,
     "demo": _cmd_demo,
     "validate": _cmd_validate,
+    "configs": _cmd_configs,
 }
 
 
@@ -666,7 +704,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
 
 
-def _one_line(e: object, limit: int = 400) -> str:
+def _one_line(e: object, limit: int = 2000) -> str:
     line = " ".join(str(e).split()) or "(no message)"
     return line if len(line) <= limit else line[: limit - 3] + "..."
 

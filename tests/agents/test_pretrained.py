@@ -22,7 +22,7 @@ pytest.importorskip("stable_baselines3")
 
 import torch as th  # noqa: E402
 
-import wheelgym.agents.pretrained as pretrained  # noqa: E402
+from wheelgym import resources  # noqa: E402
 from wheelgym.agents.benchmark import COLUMNS, read_rows, run_jobs  # noqa: E402
 from wheelgym.agents.common import make_single_env  # noqa: E402
 from wheelgym.agents.config import configs_dir, load_config  # noqa: E402
@@ -160,11 +160,15 @@ def test_unknown_name_lists_the_available_ones(bench, tmp_path):
 
 def test_missing_root_is_a_clear_error(monkeypatch, tmp_path):
     monkeypatch.delenv(ROOT_ENV, raising=False)
-    monkeypatch.setattr(pretrained, "_REPO", tmp_path)  # as in a non-editable install
-    with pytest.raises(ValueError, match="pip install -e"):
+    pkg = tmp_path / "site-packages" / "wheelgym"  # an installed package without its data
+    pkg.mkdir(parents=True)
+    monkeypatch.setattr(resources, "package_root", lambda: pkg)
+    with pytest.raises(ValueError, match="shipped pretrained agents are missing"):
         pretrained_root()
-    with pytest.raises(ValueError, match="pip install -e"):
+    with pytest.raises(ValueError, match="shipped pretrained agents are missing"):
         available()
+    with pytest.raises(ValueError, match="--root FOLDER"):  # an export needs a folder then
+        resources.pretrained_dir(for_writing=True)
     monkeypatch.setenv(ROOT_ENV, str(tmp_path / "nowhere"))
     with pytest.raises(ValueError, match="does not exist"):
         available()
@@ -312,7 +316,7 @@ def test_readme_snippet_loads_an_exported_agent(bench):
 # --------------------------------------------------------------------------------------------
 
 
-SHIPPED_ROOT = pretrained._REPO / "agents" / "pretrained"
+SHIPPED_ROOT = resources._shipped("pretrained")
 
 
 def _shipped() -> list[str]:

@@ -2,7 +2,7 @@
 against the analytic baseline and a random policy on the same evaluation seeds.
 
 :func:`run_benchmark` trains each (config, seed) job and appends its row to a CSV
-(``benchmarks/results/training.csv`` by default) as soon as it ends: one line, appended,
+(by default :data:`DEFAULT_CSV`, see its comment) as soon as it ends: one line, appended,
 flushed and fsync'd, so a killed process loses at most its running jobs. Run again, it skips the
 jobs whose row is there (same config, seed, budget and evaluation episodes), so the table can be
 built over several sittings. ``workers`` > 1 runs jobs in parallel local processes, each with
@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 import wheelgym.agents.train as train_mod
+from wheelgym import resources
 from wheelgym.agents.cluster import WORKER_ENV, run_on_ray
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
@@ -78,7 +79,8 @@ __all__ = [
 ]
 
 EVAL_SEED = 200_000
-DEFAULT_CSV = Path("benchmarks/results/training.csv")
+#: The repository's committed CSV in a source checkout, else runs/benchmark/training.csv.
+DEFAULT_CSV = resources.results_csv()
 
 #: Columns of the results CSV, in order.
 COLUMNS: tuple[str, ...] = (
@@ -109,7 +111,7 @@ RMS_FACTOR = 2.0
 
 
 def default_configs() -> list[Path]:
-    """Every ``*.yml`` file in ``configs/``, sorted."""
+    """Every shipped config (:func:`wheelgym.resources.configs_dir`), sorted."""
     return sorted(configs_dir().glob("*.yml"))
 
 

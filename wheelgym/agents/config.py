@@ -53,7 +53,7 @@ from typing import Any
 
 import yaml
 
-from wheelgym import safe_yaml
+from wheelgym import resources, safe_yaml
 
 __all__ = [
     "ALGOS",
@@ -844,28 +844,19 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
     )
 
 
-def load_config(path: str | Path) -> TrainConfig:
+def load_config(path: str | Path, argument: str = "config") -> TrainConfig:
     """Read a YAML config with :func:`safe_load_config_yaml` and validate it (see
-    :func:`parse_config`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"config file {str(path)!r} not found"
-                         + (" (it is a folder)" if path.is_dir() else ""))
+    :func:`parse_config`). ``path``: a config file, or the name of a shipped config
+    (:func:`wheelgym.resources.config_path`; ``argument`` names it in the error)."""
+    path = resources.config_path(path, argument)
     return parse_config(safe_load_config_yaml(path), source=str(path))
 
 
 def configs_dir() -> Path:
-    """The repository's ``configs/`` folder (source checkout or editable install)."""
-    candidates = [Path.cwd() / "configs", Path(__file__).resolve().parents[2] / "configs"]
-    for c in candidates:
-        if c.is_dir():
-            return c
-    raise ValueError(
-        f"no configs/ folder found (looked in {[str(c) for c in candidates]}); "
-        "pass a config file path instead"
-    )
+    """The shipped configs' folder (:func:`wheelgym.resources.configs_dir`)."""
+    return resources.configs_dir()
 
 
 def default_config_path() -> Path:
     """The main job's config: the three-wheel robot on the goal task."""
-    return configs_dir() / "ThreeWheel-goal-velocity.yml"
+    return resources.default_config()

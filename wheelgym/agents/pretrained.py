@@ -1,4 +1,5 @@
-"""Shipped trained agents: ``agents/pretrained/<CONFIG_NAME>/`` in the repository.
+"""Shipped trained agents: ``agents/pretrained/<CONFIG_NAME>/`` in the repository, shipped in the
+wheel as ``wheelgym/pretrained/<CONFIG_NAME>/`` (:func:`wheelgym.resources.pretrained_dir`).
 
 One folder per config (named like its file in ``configs/``, without ``.yml``), exported from
 the benchmark's results CSV by :func:`export_best` (``wheelgym pretrained export``):
@@ -27,9 +28,9 @@ written.
 
 :func:`load_pretrained` returns the same :class:`~wheelgym.agents.policies.AgentPolicy` as
 :func:`~wheelgym.agents.policies.load_agent` (observation statistics applied) with its
-:class:`~wheelgym.agents.config.TrainConfig`. The folder is found next to the package
-(source checkout or editable install); :data:`ROOT_ENV` overrides it, and every function
-takes a ``root``.
+:class:`~wheelgym.agents.config.TrainConfig`. The folder is found through
+:mod:`wheelgym.resources` (inside the installed package, or the checkout's
+``agents/pretrained``); :data:`ROOT_ENV` overrides it, and every function takes a ``root``.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from wheelgym import resources
 from wheelgym.agents.benchmark import parse_number, read_rows
 from wheelgym.agents.config import TrainConfig, load_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
@@ -62,7 +64,7 @@ __all__ = [
 ]
 
 #: Environment variable naming another folder of pretrained agents (tests, private agents).
-ROOT_ENV = "WHEELGYM_PRETRAINED"
+ROOT_ENV = resources.PRETRAINED_ENV
 
 #: Size limit of the whole shipped folder, in MB (10**6 bytes).
 SIZE_LIMIT_MB = 15.0
@@ -83,27 +85,13 @@ CARD_SCORES: tuple[str, ...] = (
     "train_s", "steps_to_baseline",
 )
 
-_REPO = Path(__file__).resolve().parents[2]
-
-
-def _default_root() -> Path:
-    """``$WHEELGYM_PRETRAINED``, else the repository's ``agents/pretrained`` (not checked)."""
-    override = os.environ.get(ROOT_ENV)
-    return Path(override) if override else _REPO / "agents" / "pretrained"
-
-
 def pretrained_root(root: str | Path | None = None) -> Path:
-    """The folder of pretrained agents: ``root``, ``$WHEELGYM_PRETRAINED`` or the repository's
-    ``agents/pretrained`` next to the package. ``ValueError`` if it is not a folder."""
-    path = Path(root) if root is not None else _default_root()
-    if path.is_dir():
-        return path
-    if root is None and not os.environ.get(ROOT_ENV):
-        raise ValueError(
-            f"no pretrained agents folder at {str(path)!r}: the agents ship in the source "
-            f"repository (agents/pretrained/), so install wheelgym from a clone with "
-            f"`pip install -e .`, or set {ROOT_ENV} to a folder of agents")
-    raise ValueError(f"pretrained agents folder {str(path)!r} does not exist")
+    """The folder of pretrained agents: ``root``, ``$WHEELGYM_PRETRAINED`` or the shipped
+    agents (:func:`wheelgym.resources.pretrained_dir`). ``ValueError`` if it is not a folder."""
+    path = resources.pretrained_dir(root)
+    if not path.is_dir():
+        raise ValueError(f"pretrained agents folder {str(path)!r} does not exist")
+    return path
 
 
 def available(root: str | Path | None = None) -> list[str]:
@@ -185,10 +173,13 @@ def _size(path: Path) -> int:
 
 def _shown(path: Path) -> str:
     """``path`` relative to the repository when inside it (cards stay machine-independent)."""
-    try:
-        return str(path.resolve().relative_to(_REPO))
-    except ValueError:
-        return str(path)
+    repo = resources.repository_root()
+    if repo is not None:
+        try:
+            return str(path.resolve().relative_to(repo.resolve()))
+        except ValueError:
+            pass
+    return str(path)
 
 
 #: The entry of an SB3 model file holding the optimizer's state dict.
@@ -228,9 +219,9 @@ def export_best(
     """Copy the best seed's run of each config of the results CSV into ``out_root``.
 
     ``configs``: names or config paths (their stems) to export (default: every config in the
-    CSV). ``out_root``: default ``$WHEELGYM_PRETRAINED`` or the repository's
-    ``agents/pretrained`` (created). Per config: the run's final ``model.zip`` (through
-    :func:`slim_model`),
+    CSV). ``out_root``: default ``$WHEELGYM_PRETRAINED`` or, in a source checkout, the
+    repository's ``agents/pretrained`` (created; an installed package is not written to).
+    Per config: the run's final ``model.zip`` (through :func:`slim_model`),
     ``vecnormalize.pkl`` (when the config normalises), ``config.yml``, and a ``card.json``
     from the CSV row; an existing folder of that name is replaced, others are kept. Refuses
     (``ValueError``, nothing written) when a run folder lacks a file or the folder's total
@@ -244,7 +235,7 @@ def export_best(
     if bad:
         raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: {known}")
     names = list(dict.fromkeys(names))
-    root = Path(out_root) if out_root is not None else _default_root()
+    root = resources.pretrained_dir(out_root, for_writing=True)
     if root.exists() and not root.is_dir():
         raise ValueError(f"pretrained root {str(root)!r} exists and is not a folder")
 

@@ -62,6 +62,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from wheelgym import resources
 from wheelgym.agents.common import (
     algo_class,
     build_model,
@@ -83,7 +84,7 @@ __all__ = [
     "EVAL_HISTORY_SEED",
 ]
 
-RUNS_DIR = Path("runs")
+RUNS_DIR = resources.RUNS
 
 #: First episode seed of the periodic evaluations (eval.csv): episodes use seeds
 #: ``EVAL_HISTORY_SEED + i`` for ``i < eval_episodes``.
