@@ -296,7 +296,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="comma-separated of agent, baseline-nom, baseline-true, random "
                          "(default: all)")
     rb.add_argument("--out", type=Path, default=None,
-                    help="folder of the CSV and figures (default benchmarks/results/robustness)")
+                    help="folder of the CSV and figures (default: the checkout's "
+                         "benchmarks/results/robustness, else runs/robustness)")
     rb.add_argument("--csv", type=Path, default=None,
                     help="CSV to append to and resume from (default OUT/robustness.csv)")
     rb.add_argument("--plots-only", action="store_true",

@@ -49,6 +49,7 @@ __all__ = [
     "pretrained_dir",
     "runs_dir",
     "results_csv",
+    "results_dir",
 ]
 
 #: Environment variable naming another folder of pretrained agents (tests, private agents).
@@ -179,11 +180,17 @@ def runs_dir(*parts: str) -> Path:
     return RUNS.joinpath(*parts)
 
 
+def results_dir(*parts: str) -> Path:
+    """Default folder of committed results: the repository's ``benchmarks/results/<parts>`` in
+    a source checkout, else ``runs/<parts>`` (``runs/benchmark`` for the benchmark's CSV)."""
+    repo = repository_root()
+    if repo is not None:
+        return repo.joinpath("benchmarks", "results", *parts)
+    return runs_dir(*(parts or ("benchmark",)))
+
+
 def results_csv() -> Path:
     """Default results CSV of ``wheelgym benchmark``: the repository's committed
     ``benchmarks/results/training.csv`` in a source checkout, else
     ``runs/benchmark/training.csv``."""
-    repo = repository_root()
-    if repo is not None:
-        return repo / "benchmarks" / "results" / "training.csv"
-    return runs_dir("benchmark", "training.csv")
+    return results_dir() / "training.csv"

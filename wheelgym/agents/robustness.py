@@ -37,6 +37,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from wheelgym import resources
 from wheelgym.agents.common import ensure_registered
 from wheelgym.agents.config import TrainConfig, load_config
 from wheelgym.agents.evaluate import applicable_metrics, run_episodes_vector, summarize
@@ -48,7 +49,7 @@ __all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "applicable_axe
            "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT"]
 
 #: Where ``wheelgym robustness`` writes by default (CSV and figures).
-DEFAULT_OUT = Path("benchmarks/results/robustness")
+DEFAULT_OUT = resources.results_dir("robustness")
 
 POLICIES = ("agent", "baseline-nom", "baseline-true", "random")
 
