@@ -45,7 +45,21 @@ def test_env_runner_episodes_on_the_native_env():
     runner.stop()
 
 
-@pytest.mark.slow  # Ray start-up and PPO's learner: ~40 s on a shared machine
+def test_goal_conditioned_through_flatten_observations():
+    from ray.rllib.connectors.env_to_module import FlattenObservations
+    from ray.rllib.env.single_agent_env_runner import SingleAgentEnvRunner
+
+    cfg = config(4, task="goal", goal_conditioned=True).env_runners(
+        env_to_module_connector=lambda env, spaces=None, device=None: FlattenObservations())
+    runner = SingleAgentEnvRunner(config=cfg)
+    episodes = runner.sample(num_timesteps=100, random_actions=True)
+    assert 100 <= sum(len(e) for e in episodes) < 104
+    obs = episodes[0].get_observations(0)  # flattened: 13 + 4 + 4 float32
+    assert obs.shape == (21,) and obs.dtype == np.float32
+    runner.stop()
+
+
+@pytest.mark.slow  # Ray start-up and PPO's learner: ~45 s on a shared machine
 def test_rllib_ppo_trains_on_the_native_env():
     algo = (config(8, task="goal", action_mode="velocity", max_episode_steps=100)
             .env_runners(rollout_fragment_length=128)

@@ -38,6 +38,14 @@ def test_wrap_env_auto_detects_and_counts_every_episode_end():
     assert count_ends(env, 200) == 8 * 200 // 50  # 32: every 50-step episode ends
 
 
+def test_goal_conditioned_dict_observations_are_flattened():
+    env = wrap_env(make("SameStep", task="goal", goal_conditioned=True))
+    obs, _ = env.reset()
+    assert obs.shape == (8, 13 + 4 + 4) and obs.dtype == torch.float32  # one float32 Dict
+    obs, rew, *_ = env.step(torch.zeros((8, 6)))
+    assert obs.shape == (8, 21) and rew.shape == (8, 1)
+
+
 def test_next_step_warns():
     env = wrap_env(make("NextStep"))
     with pytest.warns(UserWarning, match="autoreset_mode='SameStep'"):

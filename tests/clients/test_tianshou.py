@@ -21,8 +21,9 @@ ID = "wheelgym/ThreeWheel-v0"
 N, T = 3, 15
 
 
-def test_matches_dummy_vector_env_bit_for_bit():
-    kw = {"task": "goal", "max_episode_steps": T}
+@pytest.mark.parametrize("goal_conditioned", [False, True], ids=["box", "goal_conditioned"])
+def test_matches_dummy_vector_env_bit_for_bit(goal_conditioned):
+    kw = {"task": "goal", "max_episode_steps": T, "goal_conditioned": goal_conditioned}
     mine = make_tianshou_vec_env(ID, N, **kw)
     ref = DummyVectorEnv([lambda: gym.make(ID, **kw) for _ in range(N)])
     assert isinstance(mine, BaseVectorEnv) and len(mine) == N
@@ -61,6 +62,7 @@ def test_subsets_and_stale_sub_envs():
         make_tianshou_vec_env(ID, N, autoreset_mode="SameStep")
 
 
+@pytest.mark.slow  # 3,072 env steps of PPO and its test episodes: ~60 s on a shared machine
 def test_tianshou_ppo_trains_on_the_native_env():
     from tianshou.algorithm import PPO
     from tianshou.algorithm.modelfree.reinforce import ProbabilisticActorPolicy

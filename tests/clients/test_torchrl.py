@@ -73,11 +73,25 @@ def test_native_disabled_resets_through_reset_mask():
     env.close()
 
 
+def test_goal_conditioned_single_and_native_disabled():
+    kw = {"task": "goal", "goal_conditioned": True}
+    single = GymWrapper(gym.make(ID, max_episode_steps=T, **kw))
+    check_env_specs(single)
+    env = GymWrapper(native("Disabled", **kw))
+    check_env_specs(env)
+    td = env.rollout(2 * T, policy=zero_policy, break_when_any_done=False)
+    for key in ("observation", "achieved_goal", "desired_goal"):
+        assert td["next", key].dtype == torch.float32  # one dtype in the Dict space
+    assert td["next", "achieved_goal"].shape == (N, 2 * T, 4)
+    assert int(td["next", "done"].sum()) == N * 2
+
+
 def test_next_step_is_refused_by_torchrl():
     with pytest.raises(RuntimeError, match="SAME_STEP or DISABLED"):
         GymWrapper(native("NextStep"))
 
 
+@pytest.mark.slow  # 3,072 env steps of PPO: ~20 s on a shared machine
 def test_torchrl_ppo_trains_on_the_native_env():
     from tensordict.nn import NormalParamExtractor, TensorDictModule
     from torchrl.collectors import Collector
