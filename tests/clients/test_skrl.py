@@ -54,7 +54,8 @@ def test_next_step_warns():
     assert count_ends(env, 200) < 32
 
 
-def test_skrl_ppo_trains_on_the_native_env():
+def test_skrl_ppo_trains_on_the_native_env(tmp_path):
+    from skrl.agents.torch.base import ExperimentCfg
     from skrl.agents.torch.ppo import PPO, PPO_CFG
     from skrl.memories.torch import RandomMemory
     from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
@@ -91,7 +92,9 @@ def test_skrl_ppo_trains_on_the_native_env():
     memory = RandomMemory(memory_size=32, num_envs=env.num_envs, device="cpu")
     agent = PPO(models=models, memory=memory, observation_space=env.observation_space,
                 action_space=env.action_space, device="cpu",
-                cfg=PPO_CFG(rollouts=32, learning_epochs=2, mini_batches=2))
+                cfg=PPO_CFG(rollouts=32, learning_epochs=2, mini_batches=2,
+                            experiment=ExperimentCfg(directory=str(tmp_path), write_interval=0,
+                                                     checkpoint_interval=0)))
     before = [p.detach().clone() for p in models["policy"].parameters()]
     trainer = SequentialTrainer(env=env, agents=agent,
                                 cfg={"timesteps": 320, "headless": True,
