@@ -7,8 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("ray.rllib", reason="RLlib (ray[rllib]) is in the optional 'clients' extra")
-pytest.importorskip("torch")
+from tests.clients.conftest import require
+
+require("ray.rllib", "RLlib")
+require("torch", "torch")
 
 from ray.rllib.algorithms.ppo import PPOConfig  # noqa: E402
 

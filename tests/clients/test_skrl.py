@@ -6,8 +6,10 @@ from __future__ import annotations
 import gymnasium as gym
 import pytest
 
-pytest.importorskip("skrl", reason="skrl is in the optional 'clients' extra")
-torch = pytest.importorskip("torch")
+from tests.clients.conftest import require
+
+require("skrl", "skrl")
+torch = require("torch", "torch")
 
 from skrl.envs.wrappers.torch import wrap_env  # noqa: E402
 

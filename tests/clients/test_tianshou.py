@@ -8,8 +8,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-pytest.importorskip("tianshou", reason="Tianshou is in the optional 'clients' extra")
-torch = pytest.importorskip("torch")
+from tests.clients.conftest import require
+
+require("tianshou", "Tianshou")
+torch = require("torch", "torch")
 
 from tianshou.env import BaseVectorEnv, DummyVectorEnv  # noqa: E402
 

@@ -8,8 +8,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-pytest.importorskip("torchrl", reason="TorchRL is in the optional 'clients' extra")
-torch = pytest.importorskip("torch")
+from tests.clients.conftest import require
+
+require("torchrl", "TorchRL")
+torch = require("torch", "torch")
 
 from torchrl.envs import GymWrapper, default_info_dict_reader  # noqa: E402
 from torchrl.envs.utils import check_env_specs  # noqa: E402
