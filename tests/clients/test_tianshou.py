@@ -64,6 +64,23 @@ def test_subsets_and_stale_sub_envs():
         make_tianshou_vec_env(ID, N, autoreset_mode="SameStep")
 
 
+def test_info_keys():
+    full = make_tianshou_vec_env(ID, N, seed=0)
+    few = make_tianshou_vec_env(ID, N, seed=0, info_keys=("is_success", "tracking_error"))
+    none = make_tianshou_vec_env(ID, N, seed=0, info_keys=())
+    for env in (full, few, none):
+        env.reset()
+    a = np.zeros((N, 6))
+    (*out, info), (*out2, info2), (*out3, info3) = full.step(a), few.step(a), none.step(a)
+    assert_same(out, out2)
+    assert_same(out, out3)
+    assert [set(i) for i in info2] == [{"is_success", "tracking_error", "env_id"}] * N
+    assert [i["tracking_error"] for i in info2] == [i["tracking_error"] for i in info]
+    assert list(info3) == [{"env_id": i} for i in range(N)]
+    with pytest.raises(ValueError, match="info_keys"):
+        make_tianshou_vec_env(ID, N, info_keys="some")
+
+
 @pytest.mark.slow  # 3,072 env steps of PPO and its test episodes: ~60 s on a shared machine
 def test_tianshou_ppo_trains_on_the_native_env():
     from tianshou.algorithm import PPO

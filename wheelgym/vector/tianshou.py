@@ -31,7 +31,9 @@ seeding
     (``tests/clients/test_tianshou.py``).
 info
     ``np.ndarray`` of dicts, one per requested sub-env: the single environment's info
-    (:func:`~wheelgym.vector.env.info_row`), step infos with ``env_id`` too.
+    (:func:`~wheelgym.vector.env.info_row`), step infos with ``env_id`` too. Building N dicts
+    a step costs more than the batch's step: ``info_keys=("is_success", ...)`` copies just
+    those keys (``()``: none but ``env_id``), ``"all"`` (default) the whole info.
 attributes
     ``action_space`` / ``observation_space`` (and the other keys Tianshou forwards) answer per
     sub-env from the batch: the single env's spaces, one per sub-env.
@@ -62,9 +64,12 @@ class TianshouVectorEnv(BaseVectorEnv):
     Args:
         venv: the batched environment (``gym.make_vec(..., vectorization_mode=
             "vector_entry_point", autoreset_mode="Disabled")``).
+        info_keys: ``"all"`` (default: each row the single env's whole info), or a tuple of
+            the info keys to copy into every row (``()``: none).
     """
 
-    def __init__(self, venv: WheelVectorEnv) -> None:  # noqa: D107 (no workers: not super())
+    def __init__(self, venv: WheelVectorEnv,
+                 info_keys: Sequence[str] | str = "all") -> None:  # (no workers: not super())
         base = getattr(venv, "unwrapped", venv)
         if not isinstance(base, WheelVectorEnv):
             raise TypeError(f"venv must be a wheelgym WheelVectorEnv, got {type(venv).__name__}")
@@ -72,8 +77,15 @@ class TianshouVectorEnv(BaseVectorEnv):
             raise ValueError(
                 "Tianshou resets the sub-envs itself: make the env with autoreset_mode="
                 f"AutoresetMode.DISABLED (got {venv.metadata.get('autoreset_mode')!r})")
+        if isinstance(info_keys, str):
+            if info_keys != "all":
+                raise ValueError(f"info_keys must be 'all' or a tuple of info keys, "
+                                 f"got {info_keys!r}")
+        else:
+            info_keys = tuple(info_keys)
         N = venv.num_envs
         self.venv = venv
+        self.info_keys = info_keys
         self._base = base
         # BaseVectorEnv's bookkeeping (synchronous: every sub-env ready)
         self._env_fns: list[Any] = []
@@ -148,6 +160,13 @@ class TianshouVectorEnv(BaseVectorEnv):
         return obs[ids]
 
     def _infos(self, info: dict[str, Any], ids: np.ndarray, env_id: bool) -> np.ndarray:
+        if self.info_keys == ():
+            out = np.empty(ids.size, dtype=object)
+            out[:] = [{"env_id": int(i)} if env_id else {} for i in ids]
+            return out
+        if self.info_keys != "all":
+            keys = [k for k in self.info_keys if k in info]
+            info = {**{k: info[k] for k in keys}, **{"_" + k: info["_" + k] for k in keys}}
         out = np.empty(ids.size, dtype=object)
         for k, i in enumerate(ids):
             row = info_row(info, int(i))
@@ -198,33 +217,38 @@ class TianshouVectorEnv(BaseVectorEnv):
             raise ValueError("action must not be None (this env is synchronous)")
         if not self._started:
             raise RuntimeError("call reset() before step()")
+        N = self.env_num
         ids = self._ids(id)
         a = np.asarray(action.detach().cpu().numpy() if hasattr(action, "detach") else action)
         if a.shape[:1] != (ids.size,):
             raise ValueError(f"action must have one row per sub-env in id ({ids.size}), "
                              f"got shape {a.shape}")
-        stale = ids[self._stale[ids]]
-        if stale.size:
-            raise RuntimeError(
-                f"sub-envs {stale.tolist()} were left out of an earlier step (their robots "
-                "moved on); reset them (reset(env_id=...)) before stepping them")
-        ended = ids[self._ended[ids]]
-        if ended.size:
-            raise RuntimeError(f"sub-envs {ended.tolist()} ended; reset them before step()")
-        out_ids = np.setdiff1d(np.arange(self.env_num), ids)
-        parked = out_ids[self._ended[out_ids]]
-        if parked.size:  # left out and ended: reset (their results are dropped anyway)
-            self._reset_rows(parked)
-        if id is None:
-            A = a
+        every = ids.size == N  # (distinct indices: all of them)
+        if every and (self._stale.any() or self._ended.any()) or not every and (
+                self._stale[ids].any() or self._ended[ids].any()):
+            stale = ids[self._stale[ids]]
+            if stale.size:
+                raise RuntimeError(
+                    f"sub-envs {stale.tolist()} were left out of an earlier step (their robots "
+                    "moved on); reset them (reset(env_id=...)) before stepping them")
+            raise RuntimeError(f"sub-envs {ids[self._ended[ids]].tolist()} ended; reset them "
+                               "before step()")
+        if every and (id is None or np.array_equal(ids, np.arange(N))):
+            out_ids, A, rows = None, a, slice(None)
         else:
+            out_ids = np.setdiff1d(np.arange(N), ids)
+            parked = out_ids[self._ended[out_ids]]
+            if parked.size:  # left out and ended: reset (their results are dropped anyway)
+                self._reset_rows(parked)
             A = self._zeros.copy()
             A[ids] = a
+            rows = ids
         obs, rew, term, trunc, info = self.venv.step(A)
-        self._ended[:] = term | trunc
-        self._stale[out_ids] = True
-        return (self._obs_rows(obs, ids), rew[ids], term[ids], trunc[ids],
-                self._infos(info, ids, True))
+        np.logical_or(term, trunc, out=self._ended)
+        if out_ids is not None:
+            self._stale[out_ids] = True
+        return (self._obs_rows(obs, ids) if out_ids is not None or isinstance(obs, dict)
+                else obs, rew[rows], term[rows], trunc[rows], self._infos(info, ids, True))
 
     def render(self, **kwargs: Any) -> list[Any]:
         """The batch's frame (sub-env 0, or its grid of ``render_envs``), in a list."""
@@ -237,7 +261,8 @@ class TianshouVectorEnv(BaseVectorEnv):
         self.is_closed = True
 
 
-def make_tianshou_vec_env(env_id: str, num_envs: int = 16, seed: int | None = None,
+def make_tianshou_vec_env(env_id: str, num_envs: int = 16, seed: int | None = None, *,
+                          info_keys: Sequence[str] | str = "all",
                           **env_kwargs: Any) -> TianshouVectorEnv:
     """``num_envs`` robots of ``env_id`` as one Tianshou ``BaseVectorEnv``.
 
@@ -245,6 +270,7 @@ def make_tianshou_vec_env(env_id: str, num_envs: int = 16, seed: int | None = No
         env_id: a registered wheelgym id, e.g. ``"wheelgym/ThreeWheel-v0"``.
         num_envs: number of sub-environments.
         seed: ``seed(seed)``: sub-env i is reset with ``seed + i`` (``None``: random).
+        info_keys: see :class:`TianshouVectorEnv`.
         **env_kwargs: the environment's keyword arguments (``task``, ``action_mode``,
             ``max_episode_steps``...; ``autoreset_mode`` is set here).
     """
@@ -253,7 +279,7 @@ def make_tianshou_vec_env(env_id: str, num_envs: int = 16, seed: int | None = No
                          "resets the sub-envs)")
     venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode=AutoresetMode.DISABLED, **env_kwargs)
-    env = TianshouVectorEnv(venv)
+    env = TianshouVectorEnv(venv, info_keys=info_keys)
     if seed is not None:
         env.seed(seed)
     return env
