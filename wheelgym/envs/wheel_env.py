@@ -16,6 +16,7 @@ __all__ = ["WheelEnv", "goal_space"]
 
 _F32 = np.dtype(np.float32)
 _F64 = np.dtype(np.float64)
+_ZERO = np.float64(0.0)
 
 _DOC = """
 ## Observation Space
@@ -242,10 +243,13 @@ Gymnasium-Robotics' convention, so SB3's ``HerReplayBuffer`` works unchanged:
 | key           | dtype   | entries                                                        |
 |---------------|---------|----------------------------------------------------------------|
 | observation   | float32 | the observation above (goal in the body frame included)        |
-| achieved_goal | float64 | goal: x, y, cos yaw, sin yaw of the robot (W; not clipped,     |
+| achieved_goal | float32 | goal: x, y, cos yaw, sin yaw of the robot (W; not clipped,     |
 |               |         | not noised); navigate: x, y                                    |
-| desired_goal  | float64 | the goal's, in the same form                                   |
+| desired_goal  | float32 | the goal's, in the same form                                   |
 
+All three are float32, as SB3's buffers and Gymnasium-Robotics users expect of one Dict space
+(the goals are the float64 state rounded: within 0.25 um at 4 m, 0.5 mm at the +-1e4 m
+bound).
 (cos, sin) keeps the goal space continuous, so the Euclidean distance between goals is
 meaningful; positions lie within +-1e4 m (``tasks.GOAL_POS_BOUND``).
 ``compute_reward(achieved_goal, desired_goal, info)`` is the step reward for any desired goal,
@@ -254,7 +258,8 @@ info): progress from ``info["prev_achieved_goal"]`` (the achieved goal before th
 heading (goal only) and success (``info["success_allowed"]``: no failure or collision) are
 recomputed; the goal-independent terms come summed in ``info["reward_goal_free"]`` (effort,
 internal_force, overspeed, collision; navigate: heading too, which compares with the env's goal
-yaw). With the true goal it equals the step reward to rounding (~1e-15).
+yaw). With the observed (float32) goals it equals the step reward to their rounding (within
+1e-5 at the default weights; ``info["prev_achieved_goal"]`` is float64).
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
 (reward 0, see Episode End) are outside this.
@@ -273,10 +278,10 @@ renderer is not copied (a copy opens its own on ``render()``).
 
 def goal_space(core: WheelCore, obs_space: spaces.Box) -> spaces.Dict:
     """The ``goal_conditioned`` observation space of ``core``'s task (one env)."""
-    high = core.task.goal_high()
+    high = core.task.goal_high().astype(np.float32)
     return spaces.Dict({"observation": obs_space,
-                        "achieved_goal": spaces.Box(-high, high, dtype=np.float64),
-                        "desired_goal": spaces.Box(-high, high, dtype=np.float64)})
+                        "achieved_goal": spaces.Box(-high, high, dtype=np.float32),
+                        "desired_goal": spaces.Box(-high, high, dtype=np.float32)})
 
 
 class WheelEnv(gym.Env):
@@ -351,7 +356,7 @@ class WheelEnv(gym.Env):
         if self._gc:
             obs = self._goal_obs(obs)
             info.update(self._goal_info(c.task.achieved_goal(), True))
-        info["params"] = dict(c.drawn[0])
+        info["params"] = {k: np.float64(v) for k, v in c.drawn[0].items()}
         info["task"] = self._task_info()
         if self._renderer is not None:
             self._renderer.reset()
@@ -381,7 +386,7 @@ class WheelEnv(gym.Env):
                     "step() called after the episode terminated; call reset() first. Steps "
                     "until reset() return reward 0 and terminated=True")
                 self._warned_ended = True
-            info["reward_terms"] = dict.fromkeys(self._names, 0.0)
+            info["reward_terms"] = dict.fromkeys(self._names, _ZERO)
             r, t = 0.0, True
         else:
             r, t = reward.item(0), term.item(0)
@@ -395,13 +400,13 @@ class WheelEnv(gym.Env):
     # ------------------------------------------------------------------ goal-conditioned
     def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
         task = self.core.task
-        return {"observation": obs, "achieved_goal": task.achieved_goal()[0],
-                "desired_goal": task.desired_goal()[0]}
+        return {"observation": obs, "achieved_goal": task.achieved_goal()[0].astype(np.float32),
+                "desired_goal": task.desired_goal()[0].astype(np.float32)}
 
     def _goal_info(self, prev: np.ndarray, at_reset: bool) -> dict[str, Any]:
         g = self.core.task.goal_info(prev, np.zeros(1, dtype=np.int64) if at_reset else None)
         return {"prev_achieved_goal": g["prev_achieved_goal"][0],
-                "reward_goal_free": g["reward_goal_free"].item(0),
+                "reward_goal_free": g["reward_goal_free"][0],
                 "success_allowed": bool(g["success_allowed"][0]),
                 "terminated_goal_free": bool(g["terminated_goal_free"][0])}
 
@@ -435,20 +440,21 @@ class WheelEnv(gym.Env):
 
     def _info(self, at_reset: bool) -> dict[str, Any]:
         """The step info (``core.INFO_KEYS``, through the core's views of its blocks): vectors
-        as copies, numbers and flags as Python floats and bools, the reward terms as a dict
-        (zeros at a reset)."""
+        as copies, numbers as NumPy ``float64`` scalars (a dtype, as TorchRL's info reader needs),
+        flags as Python bools (``SyncVectorEnv`` batches ``np.bool_`` into object arrays), the
+        reward terms as a dict of ``float64`` (zeros at a reset)."""
         c = self.core
         info: dict[str, Any] = {}
         for n, v in c.info_vectors:
             info[n] = v[0].copy()
         for n, v in c.info_numbers:
-            info[n] = v.item(0)
+            info[n] = v[0]
         for n, v in c.info_core:
-            info[n] = v.item(0)
+            info[n] = v[0]
         for n, v, neg in c.info_flags:
             info[n] = v.item(0) != neg
-        t = c.terms[0].tolist()
-        info["reward_terms"] = {n: (0.0 if at_reset else t[k])
+        t = c.terms[0]
+        info["reward_terms"] = {n: (_ZERO if at_reset else t[k])
                                 for n, k in zip(self._names, self._tidx, strict=True)}
         return info
 

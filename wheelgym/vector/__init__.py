@@ -2,8 +2,10 @@
 
 ``gym.make_vec("wheelgym/<Robot>-v0", num_envs=N, vectorization_mode="vector_entry_point",
 **env_kwargs)`` returns a :class:`WheelVectorEnv`; :func:`make_sb3_vec_env` returns the same
-batch as an SB3 ``VecEnv`` (:class:`SB3VecEnv`). The SB3 pieces import Stable-Baselines3 (and
-torch) only when first used.
+batch as an SB3 ``VecEnv`` (:class:`SB3VecEnv`), :func:`make_tianshou_vec_env` as a Tianshou
+``BaseVectorEnv`` (:class:`TianshouVectorEnv`). The adapters import their library (and torch)
+only when first used. TorchRL, skrl and RLlib take the native env as it is
+(``docs/topics/clients.md``).
 """
 
 from __future__ import annotations
@@ -32,14 +34,18 @@ __all__ = [
     "AckermannVectorEnv",
     "SB3VecEnv",
     "make_sb3_vec_env",
+    "TianshouVectorEnv",
+    "make_tianshou_vec_env",
 ]
 
-_LAZY = {"SB3VecEnv", "make_sb3_vec_env"}
+#: Adapters imported on first use (each imports its library): name -> module.
+_LAZY = {"SB3VecEnv": "sb3", "make_sb3_vec_env": "sb3",
+         "TianshouVectorEnv": "tianshou", "make_tianshou_vec_env": "tianshou"}
 
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
-        from wheelgym.vector import sb3
+        import importlib
 
-        return getattr(sb3, name)
+        return getattr(importlib.import_module(f"wheelgym.vector.{_LAZY[name]}"), name)
     raise AttributeError(f"module 'wheelgym.vector' has no attribute {name!r}")

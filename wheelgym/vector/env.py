@@ -28,6 +28,10 @@ info
     the sub-envs that reset. The same values ``SyncVectorEnv`` of single envs would build;
     each step's arrays are new (keep or change them freely), the float entries column views of
     one copy of the core's buffers (not C-contiguous: ``np.ascontiguousarray`` if needed).
+    Two keywords give clients that want the same flat keys at every reset and step (TorchRL's
+    info reader) such an info: ``reward_terms="flat"`` puts each term at the top level as
+    ``reward_<term>`` (``"none"`` leaves them out; default ``"nested"``), ``reset_info=False``
+    leaves out the reset-only ``params`` and ``task``.
 actions
     ``(N, action_dim)`` real numbers; entries outside [-1, 1] are clipped; a wrong shape or a
     non-finite entry (in a sub-env that steps) raises ``ValueError``, a dtype other than float
@@ -38,13 +42,18 @@ render
     or a grid of the first ``render_envs`` sub-envs.
 
 The keyword arguments are those of the single environment (see :class:`wheelgym.envs.WheelEnv`)
-plus ``num_envs``, ``max_episode_steps``, ``autoreset_mode`` and ``render_envs``.
+plus ``num_envs``, ``max_episode_steps``, ``autoreset_mode``, ``render_envs``,
+``reward_terms`` and ``reset_info``. ``gym.make_vec`` passes them to the native env as plain
+keywords (Gymnasium refuses ``vector_kwargs`` for a ``vector_entry_point``; with
+``vectorization_mode="sync"`` or ``"async"`` its ``vector_kwargs`` go to ``SyncVectorEnv``).
+Clients (TorchRL, skrl, Tianshou, RLlib): ``docs/topics/clients.md``.
 """
 
 from __future__ import annotations
 
 import inspect
 import math
+import sys
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
@@ -61,6 +70,8 @@ from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
     "WheelVectorEnv",
+    "info_row",
+    "REWARD_TERMS",
     "ThreeWheelVectorEnv",
     "SkidSteerVectorEnv",
     "CasterAGVVectorEnv",
@@ -71,6 +82,8 @@ __all__ = [
 ]
 
 _MODES = {m.value: m for m in AutoresetMode}
+#: ``reward_terms`` choices: the terms as a nested dict, at the top level, or left out.
+REWARD_TERMS = ("nested", "flat", "none")
 
 
 def _autoreset_mode(value: Any) -> AutoresetMode:
@@ -82,6 +95,30 @@ def _autoreset_mode(value: Any) -> AutoresetMode:
         f"autoreset_mode must be one of {list(AutoresetMode)} (or their values "
         f"{list(_MODES)}), got {value!r}"
     )
+
+
+def info_row(info: dict[str, Any], i: int, skip: Sequence[str] = ()) -> dict[str, Any]:
+    """Row ``i`` of a Gymnasium vector info as the single environment's info dict (keys whose
+    ``_key`` mask is False in row ``i`` and keys in ``skip`` left out; numbers as NumPy
+    scalars, flags as Python bools, vectors as copies)."""
+    out: dict[str, Any] = {}
+    for k, v in info.items():
+        if k.startswith("_") or k in skip:
+            continue
+        mask = info.get("_" + k)
+        if mask is not None and not mask[i]:
+            continue
+        if isinstance(v, dict):
+            out[k] = info_row(v, i)
+        elif v.dtype == object:
+            out[k] = v[i]
+        elif v.dtype == np.bool_ and v.ndim == 1:
+            out[k] = bool(v[i])
+        elif v.ndim == 1:
+            out[k] = v[i]
+        else:
+            out[k] = v[i].copy()
+    return out
 
 
 def _masked(arr: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -100,6 +137,11 @@ class WheelVectorEnv(VectorEnv):
         max_episode_steps: per-sub-env time limit in control steps, or ``None``.
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` (or its value string).
         render_envs: how many sub-envs (the first ones) ``render()`` draws, tiled in a grid.
+        reward_terms: ``"nested"`` (``info["reward_terms"]``, a dict with its ``_`` masks, as
+            ``SyncVectorEnv`` builds it), ``"flat"`` (``info["reward_<term>"]`` at the top
+            level) or ``"none"`` (left out).
+        reset_info: ``False`` leaves the reset-only keys ``params`` and ``task`` out of the
+            reset and step infos (every info then has the same keys).
         robot: robot name; set by the per-robot subclasses (``ThreeWheelVectorEnv``...).
         **kwargs: the single env's keywords (:class:`~wheelgym.envs.config.EnvConfig`: task,
             action_mode, params, ctrl_dt, sim_dt, randomize, obs_noise, reward_weights,
@@ -121,6 +163,8 @@ class WheelVectorEnv(VectorEnv):
         max_episode_steps: int | None = DEFAULT_HORIZON,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         render_envs: int = 1,
+        reward_terms: str = "nested",
+        reset_info: bool = True,
         robot: str | None = None,
         **kwargs: Any,
     ) -> None:
@@ -143,6 +187,11 @@ class WheelVectorEnv(VectorEnv):
             raise ValueError(f"render_envs must be an int in [1, num_envs={num_envs}], "
                              f"got {render_envs!r}")
         mode = _autoreset_mode(autoreset_mode)
+        if not isinstance(reward_terms, str) or reward_terms not in REWARD_TERMS:
+            raise ValueError(f"reward_terms must be one of {list(REWARD_TERMS)}, "
+                             f"got {reward_terms!r}")
+        if not isinstance(reset_info, (bool, np.bool_)):
+            raise TypeError(f"reset_info must be a bool, got {reset_info!r}")
         #: The validated keyword arguments shared by the N sub-envs.
         self.config = config
         self.core = c = WheelCore(config, int(num_envs))
@@ -154,6 +203,11 @@ class WheelVectorEnv(VectorEnv):
         self.autoreset_mode = mode
         self.render_mode = config.render_mode
         self.render_envs = int(render_envs)
+        #: How the step info holds the reward terms (``REWARD_TERMS``).
+        self.reward_terms = reward_terms
+        #: Whether the infos carry the reset-only ``params`` and ``task``.
+        self.reset_info = bool(reset_info)
+        self._client_checked = False
         self.metadata = {**self.metadata, "autoreset_mode": mode,
                          "render_fps": int(round(1.0 / c.dt))}
         # the single environment's spaces, batched
@@ -169,6 +223,7 @@ class WheelVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, N)
 
         self._names = c.task.names
+        self._flat_names = tuple(f"reward_{n}" for n in self._names)
         self._tidx = np.array([int(k) for k in c.task.term_index], dtype=np.int64)
         # the INFO_KEYS table on this core: the float entries' columns of the core's block B,
         # the flags' columns of F (and which are reported negated)
@@ -226,6 +281,8 @@ class WheelVectorEnv(VectorEnv):
         Returns:
             ``obs (N, obs_dim) float32`` and the batched reset info.
         """
+        if not self._client_checked:
+            self._check_client()
         N = self.num_envs
         seeds = self._seed_list(seed)
         options = dict(options) if options else {}
@@ -261,6 +318,25 @@ class WheelVectorEnv(VectorEnv):
             info = self._mask_info(info, mask)
         return self._obs(), info
 
+    def _check_client(self) -> None:
+        """Warn once, at the first ``reset()``, when a client that expects same-step autoreset
+        drives this env with ``NEXT_STEP``: skrl's Gymnasium wrapper (which ``wrap_env`` picks
+        for this class) would learn from the autoreset steps' transitions."""
+        self._client_checked = True
+        if self.autoreset_mode is not AutoresetMode.NEXT_STEP:
+            return
+        frame = sys._getframe(2)
+        for _ in range(8):  # the caller, through a few wrappers
+            if frame is None:
+                return
+            if frame.f_globals.get("__name__", "").startswith("skrl."):
+                logger.warn(
+                    "skrl resets a wheelgym vector env with autoreset_mode=NEXT_STEP: skrl "
+                    "expects same-step autoreset and would learn from the reset transitions; "
+                    "make the env with autoreset_mode='SameStep' (docs/topics/clients.md)")
+                return
+            frame = frame.f_back
+
     # ------------------------------------------------------------------ goal-conditioned
     def _obs(self) -> np.ndarray | dict[str, np.ndarray]:
         """A copy of the batch's observation (a dict of them when ``goal_conditioned``)."""
@@ -268,8 +344,8 @@ class WheelVectorEnv(VectorEnv):
         if not self.goal_conditioned:
             return obs
         task = self.core.task
-        return {"observation": obs, "achieved_goal": task.achieved_goal(),
-                "desired_goal": task.desired_goal()}
+        return {"observation": obs, "achieved_goal": task.achieved_goal().astype(np.float32),
+                "desired_goal": task.desired_goal().astype(np.float32)}
 
     @property
     def reward_weights(self) -> dict[str, float]:
@@ -440,18 +516,23 @@ class WheelVectorEnv(VectorEnv):
             info[k] = Fo[f]
             info["_" + k] = masks[j]
             j += 1
-        terms: dict[str, Any] = {}
-        for q, n in enumerate(self._names):
-            terms[n] = tv[q]
-            terms["_" + n] = masks[nk + q]
-        info["reward_terms"] = terms
-        info["_reward_terms"] = masks[j]
+        if self.reward_terms == "nested":
+            terms: dict[str, Any] = {}
+            for q, n in enumerate(self._names):
+                terms[n] = tv[q]
+                terms["_" + n] = masks[nk + q]
+            info["reward_terms"] = terms
+            info["_reward_terms"] = masks[j]
+        elif self.reward_terms == "flat":
+            for q, n in enumerate(self._flat_names):
+                info[n] = tv[q]
+                info["_" + n] = masks[nk + q]
         if self.goal_conditioned:
             g = c.task.goal_info(self._prev_ag, reset)
             for k, v in g.items():
                 info[k] = v
                 info["_" + k] = masks[j].copy()
-        if reset is not None and reset.size:
+        if reset is not None and reset.size and self.reset_info:
             info.update(self._reset_info(reset))
         return info
 
@@ -532,44 +613,49 @@ class WheelVectorEnv(VectorEnv):
             self._renderers = None
 
 
-class ThreeWheelVectorEnv(WheelVectorEnv):
+# The per-robot classes name ``VectorEnv`` among their direct bases (it is already in their MRO
+# through WheelVectorEnv): skrl's ``wrap_env(env)`` picks its wrapper from the names of the
+# env class's direct bases and knows ``gymnasium.*`` ones only.
+
+
+class ThreeWheelVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.ThreeWheelEnv` (``gym.make_vec("wheelgym/ThreeWheel-v0",
     num_envs=N)``)."""
 
     robot = "ThreeWheel"
 
 
-class SkidSteerVectorEnv(WheelVectorEnv):
+class SkidSteerVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.SkidSteerEnv`."""
 
     robot = "SkidSteer"
 
 
-class CasterAGVVectorEnv(WheelVectorEnv):
+class CasterAGVVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.CasterAGVEnv`."""
 
     robot = "CasterAGV"
 
 
-class DiffDriveVectorEnv(WheelVectorEnv):
+class DiffDriveVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.DiffDriveEnv`."""
 
     robot = "DiffDrive"
 
 
-class UnicycleVectorEnv(WheelVectorEnv):
+class UnicycleVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.UnicycleEnv`."""
 
     robot = "Unicycle"
 
 
-class BicycleVectorEnv(WheelVectorEnv):
+class BicycleVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.BicycleEnv`."""
 
     robot = "Bicycle"
 
 
-class AckermannVectorEnv(WheelVectorEnv):
+class AckermannVectorEnv(WheelVectorEnv, VectorEnv):
     """Batched :class:`~wheelgym.envs.AckermannEnv`."""
 
     robot = "Ackermann"

@@ -34,7 +34,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from wheelgym.tasks.tasks import HER_INFO_KEYS
-from wheelgym.vector.env import WheelVectorEnv
+from wheelgym.vector.env import WheelVectorEnv, info_row
 
 __all__ = ["SB3VecEnv", "make_sb3_vec_env"]
 
@@ -42,24 +42,7 @@ __all__ = ["SB3VecEnv", "make_sb3_vec_env"]
 _FINAL = ("final_obs", "final_info")
 
 
-def _row(info: dict[str, Any], i: int, skip: Sequence[str] = ()) -> dict[str, Any]:
-    """Row ``i`` of a Gymnasium vector info as the single environment's info dict."""
-    out: dict[str, Any] = {}
-    for k, v in info.items():
-        if k.startswith("_") or k in skip:
-            continue
-        mask = info.get("_" + k)
-        if mask is not None and not mask[i]:
-            continue
-        if isinstance(v, dict):
-            out[k] = _row(v, i)
-        elif v.dtype == object:
-            out[k] = v[i]
-        elif v.ndim == 1:
-            out[k] = v[i].item()
-        else:
-            out[k] = v[i].copy()
-    return out
+_row = info_row  # row i of a vector info as the single env's info dict
 
 
 class SB3VecEnv(VecEnv):
