@@ -343,7 +343,7 @@ def force_error(model: Any, obs: np.ndarray, actions: np.ndarray,
 def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
                    epochs: int | None = None,
-                   internal_force: float | None = None) -> dict[str, Any]:
+                   internal_force: float | None = None, lr: float = LR) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -360,6 +360,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     ``clone_internal_force``) weighs the internal force of the action error in the fit
     (:func:`fit_mean`); the figures then add ``internal_force_weight`` and the mean
     :func:`force_error` before and after (``force_error_before``, ``force_error_after``).
+    ``lr``: Adam's learning rate of the fits (default :data:`LR`).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -390,7 +391,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
             break
         after = fit_mean(model, obs, actions, returns, epochs=epochs or EPOCHS, seed=seed + k,
                          stop=stop, force_rows=rows,
-                         force_weight=float(internal_force or 0.0))
+                         force_weight=float(internal_force or 0.0), lr=lr)
     fit: dict[str, Any] = {"steps": int(len(obs)), "epochs": epochs or EPOCHS,
                            "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,

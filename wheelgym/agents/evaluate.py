@@ -44,7 +44,7 @@ import gymnasium as gym
 import numpy as np
 
 from wheelgym.agents.common import make_single_env
-from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
 
 __all__ = [
@@ -575,7 +575,7 @@ def evaluate_run(
     run = Path(run)
     if not (run / "config.yml").is_file():
         raise ValueError(f"{run}: not a run folder (no config.yml)")
-    config = load_config(run / "config.yml")
+    config = load_run_config(run / "config.yml")
     stem = "model" if model == "final" else "best_model"
     stats = "vecnormalize.pkl" if model == "final" else "best_vecnormalize.pkl"
     if not (run / f"{stem}.zip").is_file():

@@ -11,7 +11,7 @@ model.zip            the best seed's final model (Stable-Baselines3 ``<Algo>.loa
                      (:func:`slim_model`: two thirds of an Adam-trained file, needed only to
                      train on)
 vecnormalize.pkl     its ``VecNormalize`` statistics (configs with ``normalize`` only)
-config.yml           the run's config as used (``load_config``): env id, env kwargs, algorithm
+config.yml           the run's config as used (``load_run_config``): env id, env kwargs, algorithm
 card.json            config name, algorithm, env id and kwargs, seed, training steps, the
                      benchmark row's scores (agent, baseline and random success, RMS error,
                      return, energy, internal force, saturation; train time), the CSV it came
@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from wheelgym.agents.benchmark import parse_number, read_rows
-from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
 
 __all__ = [
@@ -146,7 +146,7 @@ def load_pretrained(name: str, root: str | Path | None = None,
     ``ValueError`` listing the available names when there is no such agent.
     """
     folder = _folder(name, root)
-    config = load_config(folder / CONFIG)
+    config = load_run_config(folder / CONFIG)
     if config.normalize is not None and not (folder / STATS).is_file():
         raise ValueError(f"{folder}: the config normalises observations but {STATS} is missing")
     agent = load_agent(folder / MODEL, config.algo, folder / STATS, device=device)
@@ -255,7 +255,7 @@ def export_best(
         where = f"{name} seed {row['seed']} (run folder {str(run)!r})"
         if not row.get("run_dir") or not (run / CONFIG).is_file():
             raise ValueError(f"{where}: no {CONFIG}; is the run folder on this machine?")
-        config = load_config(run / CONFIG)
+        config = load_run_config(run / CONFIG)
         files = {MODEL: run / MODEL, CONFIG: run / CONFIG}
         if config.normalize is not None:
             files[STATS] = run / STATS
