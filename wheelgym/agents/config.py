@@ -598,10 +598,11 @@ class TrainConfig:
 
     @property
     def recipe(self) -> str:
-        """The recipe's short name for the results table: ``scratch`` (RL only), or the stages
+        """The recipe's short name for the results table: ``scratch`` (RL alone, with or without a
+        reward schedule), or the stages
         joined by ``+`` (``clone`` for imitating the baseline, ``distill`` for the policy
         itself without its internal force, ``rl``), e.g. ``clone+rl``."""
-        if not self.pipeline:
+        if not any(isinstance(s, pipeline_mod.Imitate) for s in self.pipeline):
             return "scratch"
         names = {"baseline": "clone", "self_without_internal_force": "distill"}
         return "+".join(names[s.teacher] if isinstance(s, pipeline_mod.Imitate) else s.kind
