@@ -29,8 +29,9 @@ At the end the best trial's hyperparameters are written as a config in the RL Zo
 (``<runs_root>/<study>/best.yml`` or ``out``): the config with the tuned keys, its own
 ``n_timesteps``, seed and evaluation settings, and a comment at the top naming the study, its
 trials and the date. :func:`export_best` writes it for an existing study at any time. Trials
-train without the config's ``distill_internal_force`` keys (a refit after the last step, which
-none of the evaluations a trial reports sees); the written config keeps them.
+train without the pipeline's ``imitate`` stages of teacher ``self_without_internal_force`` (a
+refit after the last step, which none of the evaluations a trial reports sees); the written
+config keeps them.
 
 Search spaces (:data:`SEARCH_SPACES`; ``log``: log-uniform, ``float``: uniform, ``cat``: one of):
 
@@ -77,8 +78,6 @@ import yaml
 
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
-    CLONE_KEYS,
-    DISTILL_KEYS,
     ON_POLICY,
     WHEELGYM_BLOCK,
     TrainConfig,
@@ -183,11 +182,22 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
-    if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
-        for key in ("mean_bound", *CLONE_KEYS, *DISTILL_KEYS):
-            data[WHEELGYM_BLOCK].pop(key, None)
+    if algo not in ON_POLICY:  # the fitted Gaussian mean: on-policy policies' only
+        _drop_imitate(data, ("baseline", "self_without_internal_force"))
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
+
+
+def _drop_imitate(data: dict, teachers: tuple[str, ...]) -> None:
+    """Remove the ``imitate`` stages of ``teachers`` from the file form ``data`` (in place; a
+    pipeline left with only its ``rl`` stage of no keys goes)."""
+    wg = data[WHEELGYM_BLOCK]
+    stages = [s for s in wg.get("pipeline") or []
+              if not (s.get("stage") == "imitate" and s.get("teacher") in teachers)]
+    if stages == [{"stage": "rl"}] or not stages:
+        wg.pop("pipeline", None)
+    else:
+        wg["pipeline"] = stages
 
 
 def apply_params(base: dict, algo: str, params: dict[str, Any], timesteps: int) -> dict:
@@ -362,8 +372,8 @@ def _best_config_text(study) -> str:
     env_id = next(k for k in data if k != WHEELGYM_BLOCK)
     base_env = next(k for k in base if k != WHEELGYM_BLOCK)
     data[env_id]["n_timesteps"] = base[base_env]["n_timesteps"]
-    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq", *DISTILL_KEYS):
-        if key in base[WHEELGYM_BLOCK]:
+    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq", "pipeline"):
+        if key in base[WHEELGYM_BLOCK]:  # the pipeline with the stages trials leave out
             data[WHEELGYM_BLOCK][key] = base[WHEELGYM_BLOCK][key]
     config = parse_config(data, source=f"study {study.study_name}")
     metric = attrs.get("metric", "return")
@@ -582,8 +592,8 @@ def tune(
     def objective(trial: optuna.Trial) -> float:
         params = sample_params(trial, algo)
         data = apply_params(base, algo, params, steps)
-        for key in DISTILL_KEYS:  # after training, unseen by the evaluations the trial reports
-            data[WHEELGYM_BLOCK].pop(key, None)
+        # the distillation runs after training, unseen by the evaluations the trial reports
+        _drop_imitate(data, ("self_without_internal_force",))
         env_id = next(k for k in data if k != WHEELGYM_BLOCK)
         data[env_id]["n_timesteps"] = steps
         data[WHEELGYM_BLOCK].update(seed=seed + trial.number, eval_freq=eval_freq,
