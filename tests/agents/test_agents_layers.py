@@ -128,3 +128,16 @@ def test_import_wheelgym_leaves_agents_and_heavy_packages_alone():
             "print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_no_function_of_the_agents_package_is_over_80_lines():
+    """Each job in a function of its own (issue 36): none in ``wheelgym/agents`` longer than
+    80 lines, decorators and docstring included."""
+    long = []
+    for path in sorted(AGENTS_DIR.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > 80:
+                    long.append(f"{path.name}:{node.name} ({n} lines)")
+    assert long == []

@@ -279,43 +279,52 @@ def export_best(
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     out: list[Path] = []
     for name, row, config, files in plans:
-        tmp = root / f".{name}.tmp-{os.getpid()}"
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir()
-        try:
-            for fname, src in files.items():
-                if fname == MODEL:
-                    (tmp / fname).write_bytes(models[name])
-                else:
-                    shutil.copyfile(src, tmp / fname)
-            card: dict[str, Any] = {
-                "config": name,
-                "algo": config.algo,
-                "env_id": config.env_id,
-                "env_kwargs": config.env_kwargs,
-                "normalize": config.normalize is not None,
-                "seed": int(float(row["seed"])),
-                "n_timesteps": int(float(row["n_timesteps"])),
-                "episodes": int(float(row.get("episodes") or 0)),
-                "scores": {c: parse_number(row.get(c)) for c in CARD_SCORES},
-                "csv": _shown(csv_path),
-                "run_dir": row.get("run_dir", ""),
-                "finished_utc": row.get("finished_utc", ""),
-                "exported_utc": now,
-                "files": {f: (tmp / f).stat().st_size for f in files},
-            }
-            (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
-            dest = root / name
-            if dest.exists():
-                old = root / f".{name}.old-{os.getpid()}"
-                os.replace(dest, old)
-                os.replace(tmp, dest)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, dest)
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
-        out.append(dest)
+        out.append(_write_agent(root, name, row, config, files, models[name], csv_path, now))
     return out
+
+
+def _write_agent(root: Path, name: str, row: dict[str, str], config: TrainConfig,
+                 files: dict[str, Path], model: bytes, csv_path: Path, now: str) -> Path:
+    """One agent's folder under ``root``, written aside and moved into place (an existing
+    one replaced); its ``config.yml`` in the current spelling."""
+    tmp = root / f".{name}.tmp-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        for fname, src in files.items():
+            if fname == MODEL:
+                (tmp / fname).write_bytes(model)
+            elif fname == CONFIG:
+                config.dump(tmp / fname)
+            else:
+                shutil.copyfile(src, tmp / fname)
+        card: dict[str, Any] = {
+            "config": name,
+            "algo": config.algo,
+            "env_id": config.env_id,
+            "env_kwargs": config.env_kwargs,
+            "normalize": config.normalize is not None,
+            "seed": int(float(row["seed"])),
+            "n_timesteps": int(float(row["n_timesteps"])),
+            "episodes": int(float(row.get("episodes") or 0)),
+            "scores": {c: parse_number(row.get(c)) for c in CARD_SCORES},
+            "csv": _shown(csv_path),
+            "run_dir": row.get("run_dir", ""),
+            "finished_utc": row.get("finished_utc", ""),
+            "exported_utc": now,
+            "files": {f: (tmp / f).stat().st_size for f in files},
+        }
+        (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
+        dest = root / name
+        if dest.exists():
+            old = root / f".{name}.old-{os.getpid()}"
+            os.replace(dest, old)
+            os.replace(tmp, dest)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, dest)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return dest
