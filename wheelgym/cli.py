@@ -201,7 +201,7 @@ def _parser() -> argparse.ArgumentParser:
                         "--curves: the configs to show (default all in the CSV)")
     b.add_argument("--quick", action="store_true",
                    help="1 seed, a tenth of each budget, 5 episodes")
-    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds per config (3)")
+    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds 0 .. N-1 (5)")
     b.add_argument("--episodes", type=_positive_int, default=None,
                    help="evaluation episodes per seed (50)")
     b.add_argument("--budget", type=_positive_int, default=None,

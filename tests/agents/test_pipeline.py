@@ -189,3 +189,20 @@ def test_ctrl_c_at_the_rl_stage_then_resume_runs_the_later_stage(tmp_path):
     assert [r["status"] for r in info["stages"]] == ["finished"] * 3
     assert info["stages"][0]["wall_s"] == clone_wall  # the clone kept, not run again
     assert info["stages"][2]["steps"] > 0
+
+
+def test_the_configs_page_lists_every_key():
+    """docs/topics/configs.md has a table row for every key of the wheelgym block and of each
+    stage, with the stage's defaults as its schema states them."""
+    import dataclasses
+
+    from wheelgym.agents.config import _WHEELGYM_KEYS
+
+    page = (configs_dir().parent / "docs" / "topics" / "configs.md").read_text()
+    for key in _WHEELGYM_KEYS:
+        assert f"| `{key}` |" in page, key
+    for kind, cls in STAGES.items():
+        assert f"### `{kind}`" in page
+        for f in dataclasses.fields(cls):
+            assert f"| `{f.name}` | {f.metadata['type']} | {f.metadata['default']} |" in page
+    assert "| `mean_bound` |" in page and "| `n_timesteps` |" in page

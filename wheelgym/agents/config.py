@@ -19,6 +19,9 @@ would otherwise carry (algorithm, env keyword arguments, seed, evaluation settin
       eval_freq: 20000               # environment steps between evaluations (0: none)
       eval_episodes: 10
       checkpoint_freq: 50000         # environment steps between checkpoints (0: none)
+      pipeline:                      # optional: the training's stages (wheelgym.agents.pipeline)
+        - {stage: imitate, teacher: baseline, steps: 200000}
+        - {stage: rl}
 
 Files are read with :func:`safe_load_config_yaml` (``yaml.safe_load`` semantics, but YAML
 aliases ``*name`` are refused: a config never needs them, and nested aliases can expand
@@ -27,14 +30,18 @@ exponentially; merge keys ``<<: *x`` are aliases too) and nothing in them is eva
 :data:`ACTIVATIONS`). Every unknown key and every bad value raises ``ValueError`` (one line)
 naming the file, the key and the valid choices.
 
-The ``wheelgym`` block and the RL Zoo's own keys (``policy``, ``n_envs``, ``n_timesteps``,
-``normalize``, ``noise_type``, ``noise_std``) have a schema here. The algorithm's keys are read
-from Stable-Baselines3's signatures (imported on first use, then cached per algorithm): the
-keyword arguments of the algorithm class, and for ``policy_kwargs`` those of its ``MlpPolicy``
-class, whose annotated type has a plain YAML form (numbers, booleans, strings, lists, mappings,
-``"lin_<number>"`` for a schedule); arguments the run supplies (env, seed, device, ...) and
-class-typed ones are left out, except ``activation_fn`` (by name). Values are checked against
-the annotated type, then against the ranges of :data:`_LIMITS` where one is given.
+Every key, with its type, default and valid values: docs/topics/configs.md. The ``wheelgym``
+block's recipe keys of old (``clone_baseline``, ``mean_bound``, ...) are refused with their
+new spelling (:func:`wheelgym.agents.pipeline.legacy_message`); ``mean_bound`` is a key of
+``policy_kwargs`` (PPO/A2C). The ``wheelgym`` block and the RL Zoo's own keys (``policy``,
+``n_envs``, ``n_timesteps``, ``normalize``, ``noise_type``, ``noise_std``) have a schema here.
+The algorithm's keys are read from Stable-Baselines3's signatures (imported on first use, then
+cached per algorithm): the keyword arguments of the algorithm class, and for ``policy_kwargs``
+those of its ``MlpPolicy`` class, whose annotated type has a plain YAML form (numbers, booleans,
+strings, lists, mappings, ``"lin_<number>"`` for a schedule); arguments the run supplies (env,
+seed, device, ...) and class-typed ones are left out, except ``activation_fn`` (by name). Values
+are checked against the annotated type, then against the ranges of :data:`_LIMITS` where one is
+given.
 """
 
 from __future__ import annotations

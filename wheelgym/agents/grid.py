@@ -337,7 +337,7 @@ def _run_pool(jobs: list[Job], workers: int, book: _Book) -> bool:
 def run_jobs(
     configs: Sequence[str | Path] | None = None,
     *,
-    seeds: int = 3,
+    seeds: int = 5,
     episodes: int = 50,
     budget: int | None = None,
     quick: bool = False,
@@ -419,11 +419,12 @@ def run_benchmark(
 ) -> str:
     """:func:`run_jobs`, then the Markdown table of this call's configs, budgets and episodes.
 
-    Defaults: 3 seeds, 50 evaluation episodes, each config's ``n_timesteps``; ``quick``: 1 seed,
-    5 episodes, a tenth of each budget (at least 2048 steps). Raises ``RuntimeError`` naming the
-    jobs that failed (after writing the others).
+    Defaults: 5 seeds (0-4; the rows of seeds already in the CSV are kept), 50 evaluation
+    episodes, each config's ``n_timesteps``; ``quick``: 1 seed, 5 episodes, a tenth of each
+    budget (at least 2048 steps). Raises ``RuntimeError`` naming the jobs that failed (after
+    writing the others).
     """
-    n_seeds = seeds if seeds is not None else (1 if quick else 3)
+    n_seeds = seeds if seeds is not None else (1 if quick else 5)
     n_eps = episodes if episodes is not None else (5 if quick else 50)
     paths = [Path(p) for p in configs] if configs else default_configs()
     summary = run_jobs(paths, seeds=n_seeds, episodes=n_eps, budget=budget, quick=quick,

@@ -15,28 +15,33 @@ eval.csv               evaluation history: steps, wall time (continued across re
 best_model.zip         the model of the best evaluation (and ``best_vecnormalize.pkl``)
 checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
 tb/                    TensorBoard logs
-run.json               ``status``, steps, wall time, versions; ``error`` when failed
-reward_weights.csv     with a ``reward_schedule``: each change of the reward weights (step,
-                       term, the weight the training envs then hold)
+run.json               ``status``, steps, wall time, versions, ``stages``; ``error`` when failed
+reward_weights.csv     with the rl stage's ``reward_schedule``: each change of the reward weights
+                       (step, term, the weight the training envs then hold)
 run.lock               present while a process trains in the folder (holds its pid)
 ====================== ======================================================================
 
-``status`` in run.json: ``cloning`` while ``clone_baseline`` demonstrates and fits;
-``running`` while training; ``distilling`` while ``distill_internal_force`` refits the trained
-policy (after the last step; its figures go to run.json's ``distill``); ``finished`` when the
-target number of steps was reached (and any distillation done); ``interrupted`` after Ctrl-C
+The run trains the config's pipeline (:mod:`wheelgym.agents.pipeline`; without one, a single
+``rl`` stage) in order on one model. run.json's ``stages`` records each stage: its kind (and
+teacher), ``status`` (``pending``, ``running``, ``finished``, ``interrupted``, ``stopped``,
+``failed``), the steps the model had after it, its wall time and, for an ``imitate`` stage, the
+fit's figures; ``stage`` is the index of the last stage started and ``recipe`` the recipe's
+short name (:attr:`wheelgym.agents.config.TrainConfig.recipe`).
+
+``status`` in run.json: ``cloning`` while an ``imitate`` stage with the baseline as teacher
+runs, ``distilling`` while one with the policy itself as teacher runs, ``running`` during the
+``rl`` stage; ``finished`` when every stage has run to its end; ``interrupted`` after Ctrl-C
 (SIGINT); ``stopped`` when the caller's ``on_eval`` hook ended training early (a pruned tuning
 trial); ``failed`` when training raised (``error`` holds the exception's type and message; the
 exception propagates). A process that died without a word (SIGKILL, power loss) leaves
 ``running`` (or ``cloning``, ``distilling``).
 
-Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
-Ctrl-C stops at once, still saving); during ``clone_baseline`` it ends the demonstration or fit
-at the next step or batch and saves the partly fitted model (``resume`` clones again); so during
-``distill_internal_force`` (``resume`` distils again). ``subproc``
+Ctrl-C (SIGINT) at any stage stops it at the next environment step (or fit batch) and saves the
+model and statistics as they are (a second Ctrl-C stops at once, still saving). ``subproc``
 vector-env workers ignore SIGINT (they share the terminal's process group), so the main process
-stops them cleanly. ``resume`` continues a run in
-its own folder from its last saved model or checkpoint.
+stops them cleanly. ``resume`` continues a run in its own folder from its last saved model or
+checkpoint, at the first stage not finished (an interrupted ``imitate`` stage runs again from
+the saved model; the ``rl`` stage continues to ``n_timesteps``), and runs every stage after it.
 
 Only one process at a time trains in a run folder: ``train`` and ``resume`` take ``run.lock``
 (created exclusively) and remove it on exit; a second process is refused with ``ValueError``. A
