@@ -180,7 +180,8 @@ def test_reward_schedule_changes_the_training_envs_weights(tmp_path, vec_env):
     # success 10 -> 25 at step 512, effort from its default 0.01 to 0.5 at step 768
     schedule = {"success": [[0, 10.0], [512, 25.0]], "effort": [[768, 0.5]]}
     cfg = parse_config(tiny_config(vec_env=vec_env, reward_schedule=schedule))
-    assert cfg.to_dict()["wheelgym"]["reward_schedule"] == schedule  # written back as read
+    assert cfg.to_dict()["wheelgym"]["pipeline"] == [{"stage": "rl",
+                                                      "reward_schedule": schedule}]
     res = train(cfg, runs_root=tmp_path, progress=False)
     assert res.status == "finished"
     with (res.run_dir / "reward_weights.csv").open() as f:

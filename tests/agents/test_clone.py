@@ -133,7 +133,7 @@ def test_a_cloned_run_records_the_fit_and_trains_on(tmp_path):
     assert info["stages"][0]["mse_after"] < info["stages"][0]["mse_before"]
     assert info["wall_s"] >= info["stages"][0]["wall_s"]
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
-    assert written["wheelgym"]["clone_baseline"] == 2048
+    assert written["wheelgym"]["pipeline"][0]["steps"] == 2048
     assert info["stages"][0]["epochs"] == 10  # clone.EPOCHS
     # clone_epochs: fewer passes over the same rows (same seed) leave a larger error
     one = train(parse_config(_nav_config(clone_baseline=2048, clone_epochs=1)),
@@ -166,7 +166,7 @@ def test_ctrl_c_during_the_clone_keeps_the_model_and_resume_clones_again(tmp_pat
     assert load_agent(model_path, "ppo", stats).obs_norm is not None
     # resume clones again (a short demonstration now) and then trains
     written = yaml.safe_load((run / "config.yml").read_text())
-    written["wheelgym"]["clone_baseline"] = 2048
+    written["wheelgym"]["pipeline"][0]["steps"] = 2048
     (run / "config.yml").write_text(yaml.safe_dump(written))
     res = resume(run, progress=False)
     assert res.status == "finished" and res.timesteps == 1024

@@ -150,7 +150,7 @@ def test_a_distilled_run_records_the_fit(tmp_path):
     assert fit["force_after"] <= fit["rounds"][0]["force_before"], fit
     assert info["wall_s"] >= fit["wall_s"] > 0
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
-    assert written["wheelgym"]["distill_internal_force"] == 2048
+    assert written["wheelgym"]["pipeline"][-1]["steps"] == 2048
     # resuming a finished run with nothing left to train does not distil again
     again = resume(res.run_dir, progress=False)
     assert again.status == "finished"
@@ -168,7 +168,7 @@ def test_ctrl_c_during_the_distillation_keeps_the_model_and_resume_distils_again
     assert info["status"] == "interrupted" and info["timesteps"] == 1024, info
     assert info["stages"][-1]["interrupted"] and (run / "model.zip").is_file(), info
     written = yaml.safe_load((run / "config.yml").read_text())
-    written["wheelgym"]["distill_internal_force"] = 2048
+    written["wheelgym"]["pipeline"][-1]["steps"] = 2048
     (run / "config.yml").write_text(yaml.safe_dump(written))
     res = resume(run, progress=False)
     assert res.status == "finished" and res.timesteps == 1024
