@@ -115,7 +115,7 @@ def test_agents_modules_import_no_cycle():
 
 def test_config_is_the_bottom_layer():
     graph = import_graph()
-    assert graph[f"{PACKAGE}.pipeline"] == set()  # the stage schemas: plain dataclasses
+    assert graph[f"{PACKAGE}.pipeline"] == {f"{PACKAGE}.clone"}  # its defaults: clone.py
     assert graph[f"{PACKAGE}.config"] == {f"{PACKAGE}.pipeline"}
     assert graph[f"{PACKAGE}.bounded_policy"] == set()  # an SB3 policy class: torch and SB3 only
     assert graph[f"{PACKAGE}.clone"] == set()  # the envs' baseline and an SB3 model only
