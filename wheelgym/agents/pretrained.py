@@ -45,9 +45,9 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from wheelgym.agents.benchmark import parse_number, read_rows
 from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
+from wheelgym.agents.store import parse_number, read_rows
 
 __all__ = [
     "ROOT_ENV",
