@@ -387,6 +387,7 @@ def _cmd_tune(a: argparse.Namespace) -> int:
 def _cmd_benchmark(a: argparse.Namespace) -> int:
     from wheelgym.agents.benchmark import (
         DEFAULT_CSV,
+        default_configs,
         format_table,
         plot_curves,
         read_rows,
@@ -455,7 +456,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         if a.readme is not None:
             update_readme(a.readme, readme_summary(rows))
         if a.page is not None:
-            a.page.write_text(results_page(rows) + "\n")
+            shipped = [p.stem for p in default_configs()] if not names else sorted(names)
+            a.page.write_text(results_page(rows, configs=shipped) + "\n")
     return 0
 
 

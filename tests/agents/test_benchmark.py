@@ -345,7 +345,10 @@ def test_the_results_page_and_the_readme_summary_are_the_csv_s(tmp_path):
     root = Path(__file__).resolve().parents[2]
     rows = read_rows(root / DEFAULT_CSV)
     page = root / "docs" / "topics" / "results.md"
-    assert page.read_text() == results_page(rows) + "\n"
+    shipped = [p.stem for p in default_configs()]
+    assert page.read_text() == results_page(rows, configs=shipped) + "\n"
+    assert "Configs without rows yet: `Bicycle-goal-VehicleSpeedSteeringAngle-her`" in (
+        page.read_text())
     readme = tmp_path / "README.md"
     readme.write_text(f"# x\n{README_BEGIN}\nstale\n{README_END}\nrest\n")
     out = tmp_path / "results.md"

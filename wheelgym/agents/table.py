@@ -327,9 +327,10 @@ CURVES: tuple[tuple[str, str], ...] = (
 
 
 def results_page(rows: Sequence[dict[str, str]], recipes: dict[str, str] | None = None,
-                 images: str = "../../benchmarks/results") -> str:
-    """``docs/topics/results.md``: the full table and the curves (``images``: their folder
-    relative to the page)."""
+                 images: str = "../../benchmarks/results",
+                 configs: Sequence[str] = ()) -> str:
+    """``docs/topics/results.md``: the full table, the ``configs`` (names) that have no rows
+    yet, and the curves (``images``: their folder relative to the page)."""
     text = [
         "# Results", "",
         "Every config of `configs/` trained on seeds 0, 1, ... and scored against the analytic "
@@ -338,6 +339,9 @@ def results_page(rows: Sequence[dict[str, str]], recipes: dict[str, str] | None 
         "`benchmarks/results/training.csv`; do not edit by hand.", "",
         format_table(rows, recipes), "",
     ]
+    missing = sorted(set(configs) - {r["config"] for r in rows})
+    if missing:
+        text += ["Configs without rows yet: " + ", ".join(f"`{n}`" for n in missing) + ".", ""]
     for name, title in CURVES:
         text += [f"![{title}]({images}/{name})", ""]
     return "\n".join(text)
