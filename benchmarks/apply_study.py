@@ -3,8 +3,9 @@
 ``wheelgym tune`` writes the best trial as a config for the study's own base config; this script
 puts the tuned keys (the search space's: learning rate, rollout, epochs, discounting, clipping,
 entropy, network, initial log std) into other configs of the same family, keeping each one's
-env, seed, evaluation settings and RL Zoo comment, sets an optional budget, writes a
-``# Numbers:`` header naming the study, and appends the study's summary to
+env, seed, evaluation settings, pipeline and RL Zoo comment, sets an optional budget, writes a
+one-line ``# Numbers:`` header naming the study (and prints the study's figures for the
+config's section of docs/topics/research-log-configs.md), and appends the study's summary to
 ``benchmarks/results/studies.csv``.
 
 Usage::
@@ -13,7 +14,8 @@ Usage::
         [--budget STEPS] [--why "text"] [--copy-db]
 
 ``--copy-db`` copies the study's SQLite file to ``benchmarks/results/studies/<study>.db`` (open
-it with ``optuna-dashboard sqlite:///...``).
+it with ``optuna-dashboard sqlite:///...``), a folder git ignores: the study's results stay in
+studies.csv.
 """
 
 from __future__ import annotations
@@ -100,8 +102,13 @@ def apply(config_path: Path, tuned: dict, header: list[str], budget: int | None)
     lines = text.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith(f"# {robot} ("))
     end = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    kept = [line for line in lines[start:end] if not line.startswith("# Numbers:")]
+    numbers = next((i for i, line in enumerate(kept) if line.startswith("# history:")), None)
+    if numbers is not None:  # the old provenance line's wrapped tail
+        del kept[numbers]
+    desc = next((i for i, line in enumerate(kept) if line == "#"), len(kept))
     body = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
-    config_path.write_text("\n".join(header + lines[start:end]) + "\n" + body)
+    config_path.write_text("\n".join(kept[:desc] + header + kept[desc:]) + "\n" + body)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -122,15 +129,15 @@ def main(argv: list[str] | None = None) -> int:
     for path in a.configs:
         own = Path(s["base_config"]).name == path.name
         scope = "searched for this config" if own else f"searched on {Path(s['base_config']).name}"
-        text = (f"Numbers: hyperparameters from Optuna study '{s['study']}' ({scope}; TPE, "
-                f"{s['complete']} complete of {s['trials']} trials of "
-                f"{s['timesteps_per_trial']} steps, metric {s['metric']}{constraint}; best "
-                f"trial {s['best_trial']}: {s['best_value']}; {date}; "
-                f"benchmarks/results/studies.csv and studies/). "
-                + (a.why if a.why else "Budget: the config's own."))
-        header = ["# " + line for line in textwrap.wrap(text, 94, break_on_hyphens=False)]
+        text = (f"Numbers: hyperparameters from Optuna study '{s['study']}', as of {date}; "
+                f"history: docs/topics/research-log-configs.md")
+        header = ["# " + line for line in textwrap.wrap(text, 97, break_on_hyphens=False)]
         apply(path, tuned, header, a.budget)
-        print(f"wrote {path}")
+        print(f"wrote {path}; add to its section of docs/topics/research-log-configs.md: "
+              f"study '{s['study']}' ({scope}; TPE, {s['complete']} complete of {s['trials']} "
+              f"trials of {s['timesteps_per_trial']} steps, metric {s['metric']}{constraint}; "
+              f"best trial {s['best_trial']}: {s['best_value']}; {date}; "
+              f"benchmarks/results/studies.csv). {a.why}")
     s["applied_to"] = " ".join(p.stem for p in a.configs)
     s["date"] = date
     new = not STUDIES_CSV.is_file()

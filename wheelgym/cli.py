@@ -214,7 +214,7 @@ def _parser() -> argparse.ArgumentParser:
                         "in the CSV)")
     b.add_argument("--quick", action="store_true",
                    help="1 seed, a tenth of each budget, 5 episodes")
-    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds per config (3)")
+    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds 0 .. N-1 (5)")
     b.add_argument("--episodes", type=_positive_int, default=None,
                    help="evaluation episodes per seed (50)")
     b.add_argument("--budget", type=_positive_int, default=None,
@@ -245,7 +245,11 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--runs-root", type=Path, default=resources.runs_dir("benchmark"))
     b.add_argument("--out", type=Path, default=None, help="also write the table here (.md)")
     b.add_argument("--readme", type=Path, default=None, metavar="README.md",
-                   help="also put the table between the results markers of this file")
+                   help="also put the short results summary between the results-summary "
+                        "markers of this file")
+    b.add_argument("--page", type=Path, default=None, metavar="RESULTS.md",
+                   help="also write the results page (the full table and the curves), e.g. "
+                        "docs/topics/results.md")
 
     r = sub.add_parser("pretrained", help="list the shipped agents, or export them from the "
                                           "benchmark CSV")
@@ -428,10 +432,13 @@ def _cmd_tune(a: argparse.Namespace) -> int:
 def _cmd_benchmark(a: argparse.Namespace) -> int:
     from wheelgym.agents.benchmark import (
         DEFAULT_CSV,
+        default_configs,
         format_table,
         plot_curves,
         read_rows,
+        readme_summary,
         rescore,
+        results_page,
         run_benchmark,
         update_readme,
     )
@@ -441,6 +448,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         _check_writable_file(a.out, "--out")
     if a.curves is not None:
         _check_writable_file(a.curves, "--curves")
+    if a.page is not None:
+        _check_writable_file(a.page, "--page")
     if a.rescore:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
@@ -487,8 +496,14 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
-    if a.readme is not None:
-        update_readme(a.readme, table)
+    if a.readme is not None or a.page is not None:
+        names = {p.stem for p in a.configs}
+        rows = [r for r in read_rows(csv_path) if not names or r["config"] in names]
+        if a.readme is not None:
+            update_readme(a.readme, readme_summary(rows))
+        if a.page is not None:
+            shipped = [p.stem for p in default_configs()] if not names else sorted(names)
+            a.page.write_text(results_page(rows, configs=shipped) + "\n")
     return 0
 
 

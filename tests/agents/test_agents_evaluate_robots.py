@@ -18,7 +18,7 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
-from wheelgym.agents.config import CLONE_KEYS, DISTILL_KEYS, configs_dir, parse_config  # noqa: E402
+from wheelgym.agents.config import configs_dir, parse_config  # noqa: E402
 from wheelgym.agents.evaluate import (  # noqa: E402
     applicable_metrics,
     input_channels,
@@ -38,8 +38,9 @@ def _short_config(robot: str, task: str = "goal"):
     data[env_id].update(n_envs=2, n_timesteps=128, n_steps=64, batch_size=64, n_epochs=1,
                         policy_kwargs={"net_arch": [16]})
     data["wheelgym"].update(vec_env="dummy", eval_freq=0, checkpoint_freq=0)
-    for key in (*CLONE_KEYS, *DISTILL_KEYS):  # they need the native vector env; not tested here
-        data["wheelgym"].pop(key, None)
+    stages = [s for s in data["wheelgym"].pop("pipeline", None) or [] if s["stage"] == "rl"]
+    if stages:  # the imitate stages need the native vector env; not tested here
+        data["wheelgym"]["pipeline"] = stages
     data["wheelgym"]["env_kwargs"]["max_episode_steps"] = 25
     return parse_config(data, source=str(path))
 

@@ -115,7 +115,8 @@ def test_agents_modules_import_no_cycle():
 
 def test_config_is_the_bottom_layer():
     graph = import_graph()
-    assert graph[f"{PACKAGE}.config"] == set()
+    assert graph[f"{PACKAGE}.pipeline"] == {f"{PACKAGE}.clone"}  # its defaults: clone.py
+    assert graph[f"{PACKAGE}.config"] == {f"{PACKAGE}.pipeline"}
     assert graph[f"{PACKAGE}.bounded_policy"] == set()  # an SB3 policy class: torch and SB3 only
     assert graph[f"{PACKAGE}.clone"] == set()  # the envs' baseline and an SB3 model only
     assert graph[f"{PACKAGE}.common"] == {f"{PACKAGE}.config", f"{PACKAGE}.bounded_policy"}
@@ -128,3 +129,16 @@ def test_import_wheelgym_leaves_agents_and_heavy_packages_alone():
             "print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_no_function_of_the_agents_package_is_over_80_lines():
+    """Each job in a function of its own (issue 36): none in ``wheelgym/agents`` longer than
+    80 lines, decorators and docstring included."""
+    long = []
+    for path in sorted(AGENTS_DIR.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > 80:
+                    long.append(f"{path.name}:{node.name} ({n} lines)")
+    assert long == []

@@ -20,6 +20,7 @@ pytest.importorskip("stable_baselines3")
 
 from wheelgym.agents.config import parse_config  # noqa: E402
 from wheelgym.agents.evaluate import METRICS, evaluate_run  # noqa: E402
+from wheelgym.agents.pipeline import migrate  # noqa: E402
 from wheelgym.agents.policies import load_agent  # noqa: E402
 from wheelgym.agents.train import latest_model, resume, train  # noqa: E402
 
@@ -28,6 +29,14 @@ ENV_KWARGS = {"task": "goal", "action_mode": "velocity"}
 
 
 def tiny_config(**wheelgym_block) -> dict:
+    """A tiny PPO config; the keyword arguments go into its ``wheelgym`` block, where the flat
+    recipe keys of old (``clone_baseline=...``, ``mean_bound=...``) are written in the pipeline
+    spelling (:func:`wheelgym.agents.pipeline.migrate`)."""
+    return migrate(tiny_config_flat(**wheelgym_block))
+
+
+def tiny_config_flat(**wheelgym_block) -> dict:
+    """:func:`tiny_config` with the keyword arguments as given (old flat keys kept)."""
     return {
         ENV_ID: {
             "policy": "MlpPolicy",
@@ -47,10 +56,10 @@ def tiny_config(**wheelgym_block) -> dict:
 
 def tiny_sac_config(**wheelgym_block) -> dict:
     """:func:`tiny_config` switched to SAC (PPO's rollout keys removed)."""
-    data = tiny_config(algo="sac", **wheelgym_block)
+    data = tiny_config_flat(algo="sac", **wheelgym_block)
     for k in ("n_steps", "n_epochs"):
         del data[ENV_ID][k]
-    return data
+    return migrate(data)
 
 
 def _finite_csv_numbers(path: Path) -> list[float]:
@@ -171,7 +180,8 @@ def test_reward_schedule_changes_the_training_envs_weights(tmp_path, vec_env):
     # success 10 -> 25 at step 512, effort from its default 0.01 to 0.5 at step 768
     schedule = {"success": [[0, 10.0], [512, 25.0]], "effort": [[768, 0.5]]}
     cfg = parse_config(tiny_config(vec_env=vec_env, reward_schedule=schedule))
-    assert cfg.to_dict()["wheelgym"]["reward_schedule"] == schedule  # written back as read
+    assert cfg.to_dict()["wheelgym"]["pipeline"] == [{"stage": "rl",
+                                                      "reward_schedule": schedule}]
     res = train(cfg, runs_root=tmp_path, progress=False)
     assert res.status == "finished"
     with (res.run_dir / "reward_weights.csv").open() as f:

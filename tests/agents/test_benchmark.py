@@ -16,8 +16,6 @@ import wheelgym.agents.train as train_mod  # noqa: E402
 from wheelgym.agents.benchmark import (  # noqa: E402
     COLUMNS,
     DEFAULT_CSV,
-    _append_row,
-    _scaled_eval_freq,
     config_digest,
     default_configs,
     format_table,
@@ -30,6 +28,9 @@ from wheelgym.agents.benchmark import (  # noqa: E402
     update_readme,
 )
 from wheelgym.agents.config import load_config  # noqa: E402
+from wheelgym.agents.grid import _scaled_eval_freq, worker_init  # noqa: E402
+from wheelgym.agents.store import append_row as _append_row  # noqa: E402
+from wheelgym.agents.table import TABLE_HEAD  # noqa: E402
 from wheelgym.cli import main  # noqa: E402
 
 ENV_ID = "wheelgym/ThreeWheel-v0"
@@ -84,7 +85,8 @@ def test_benchmark_resumes_and_skips_finished_rows(tmp_path, monkeypatch, capsys
                "--budget", "512", "--csv", str(out), "--runs-root", str(runs)])
     text = capsys.readouterr().out
     assert rc == 0 and len(calls) == 2, text
-    assert "0 run(s) to do, 2 already" in text and "| tiny-track | PPO | 512 | 1 | 2 |" in text
+    assert "0 run(s) to do, 2 already" in text
+    assert "| tiny-track | scratch | PPO | 512 | 1 | 2 |" in text
     assert len(read_rows(out)) == 2
     # Another budget is another row.
     again = run_jobs([goal], **{**kw, "budget": 256})
@@ -142,28 +144,52 @@ def test_table_from_a_known_csv(tmp_path):
     ]
     for r in reversed(rows):  # the table sorts by config
         _append_row(path, r)
-    expected = "\n".join([
-        "| config | algo | steps | seeds | episodes | agent success [%] | baseline success [%] "
-        "| random success [%] | agent RMS [m] | baseline RMS [m] | agent return | baseline "
-        "return | random return | energy / baseline | internal force / baseline | agent "
-        "saturation [%] | steps to baseline | train [s/seed] | targets |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
-        "| ThreeWheel-goal-velocity | PPO | 1000000 | 2 | 10 | 70 ± 10 | 100 | 0 | - | - "
-        "| 9.0 ± 1.0 | 12.0 | -5.0 | 2.50x | 6.00x | 20 ± 10 | 400k (1/2) | 12 | **success** |",
-        "| ThreeWheel-track-velocity | PPO | 500000 | 1 | 10 | 100 | 100 | 0 | 0.009 | 0.017 "
-        "| -5.5 | -8.3 | -60.0 | - | - | - | 250k | 100 | met |",
-        "",
-        "Agent: mean ± std over training seeds of each seed's mean over the evaluation episodes; "
-        "baseline and random: mean over the same episodes. Steps to baseline: first periodic "
-        "evaluation within 5 points of the baseline's success (track: within 2x its RMS error), "
-        "mean over the seeds that reached it. Energy and internal force: the agent's mean over "
-        "the baseline's. Targets: `met`, or the ones missed in bold (success: goal >= 95% and >= "
-        "baseline - 5 points, navigate >= baseline - 5, track >= 90%; RMS <= max(2x baseline, "
-        "2 cm); torque mode internal force <= 3x and energy <= 1.5x the baseline's where internal "
-        "force is defined; saturation <= 25%; time <= 10 min/seed). Total CPU time 2.3 min (3 "
-        "runs).",
-    ])
-    assert format_table(read_rows(path)) == expected
+    table = format_table(read_rows(path), recipes={"ThreeWheel-goal-velocity": "scratch"})
+    lines = table.splitlines()
+    assert lines[0] == "| " + " | ".join(TABLE_HEAD) + " |"
+    goal = [c.strip() for c in lines[2].strip("|").split("|")]
+    track = [c.strip() for c in lines[3].strip("|").split("|")]
+    cell = dict(zip(TABLE_HEAD, goal, strict=True))
+    # 2 seeds at 80 and 60%: the mean 70, the IQM of 2 values their mean, the worst seed 1
+    assert (cell["config"], cell["recipe"], cell["n"], cell["success mean [%]"]) == (
+        "ThreeWheel-goal-velocity", "scratch", "2", "70")
+    assert cell["success IQM [95% CI] [%]"].startswith("70 [60, 80]")
+    assert cell["worst seed success [%]"] == "60 (s1)"
+    assert (cell["energy / baseline"], cell["internal force / baseline"]) == ("2.50x", "6.00x")
+    assert (cell["steps to baseline"], cell["train [s/seed]"]) == ("400k (1/2)", "12")
+    assert cell["targets (mean)"] == "**success**"
+    assert cell["targets (worst seed)"] == "**success**, **saturation**"  # seed 1: 30%
+    cell = dict(zip(TABLE_HEAD, track, strict=True))
+    assert (cell["recipe"], cell["n"], cell["RMS IQM [95% CI] [m]"]) == (
+        "?", "1", "0.009 [0.009, 0.009]")
+    assert cell["targets (mean)"] == "met" == cell["targets (worst seed)"]
+    assert lines[-1].endswith("Total CPU time 2.3 min (3 runs).")
+    assert "of 3 seeds the middle one" in lines[-1]
+
+
+def test_iqm_and_its_bootstrap_interval():
+    from wheelgym.agents.table import bootstrap_ci, iqm
+
+    assert iqm([0.2, 1.0, 0.9]) == 0.9  # of 3: the middle one
+    assert iqm([1, 2, 3, 4]) == 2.5  # of 4: the middle two
+    assert iqm([0.0, 0.5, 0.6, 0.7, 1.0]) == pytest.approx(0.6)  # of 5: the middle three
+    assert iqm([3.0]) == 3.0
+    with pytest.raises(ValueError, match="no values"):
+        iqm([])
+    vals = [0.7, 1.0, 1.0, 0.9, 0.2]
+    lo, hi = bootstrap_ci(vals, "k")
+    assert (lo, hi) == bootstrap_ci(vals, "k")  # seeded: the same interval every time
+    assert 0.2 <= lo <= iqm(vals) <= hi <= 1.0
+    assert bootstrap_ci([0.5, 0.5, 0.5], "k") == (0.5, 0.5)
+
+
+def test_the_targets_are_data():
+    from wheelgym.agents.table import load_targets
+
+    t = load_targets()
+    assert t["goal_success"] == 0.95 and t["train_s"] == 600.0
+    assert target_misses("CasterAGV-goal-torque", _col({"agent_saturation": [0.3]}),
+                         {**t, "saturation": 0.5}) == []
 
 
 def test_steps_to_baseline_reads_the_evaluation_history(tmp_path):
@@ -311,19 +337,31 @@ def test_target_misses(config, values, misses):
     assert target_misses(config, _col(values)) == misses
 
 
-def test_readme_results_table_is_the_csv_table(tmp_path):
-    """The README's table is what the generator makes of the committed CSV, and --readme
-    rewrites it in place."""
+def test_the_results_page_and_the_readme_summary_are_the_csv_s(tmp_path):
+    """docs/topics/results.md is what the generator makes of the committed CSV; --page and
+    --readme write it and the README summary in place."""
+    from wheelgym.agents.table import README_BEGIN, README_END, readme_summary, results_page
+
     root = Path(__file__).resolve().parents[2]
-    readme = (root / "README.md").read_text()
-    shown = readme_table(readme)
-    assert shown is not None, "README.md has no results-table markers"
-    assert shown == format_table(read_rows(root / DEFAULT_CSV))
-    copy = tmp_path / "README.md"
-    copy.write_text(readme.replace(shown, "stale"))
+    rows = read_rows(root / DEFAULT_CSV)
+    page = root / "docs" / "topics" / "results.md"
+    shipped = [p.stem for p in default_configs()]
+    assert page.read_text() == results_page(rows, configs=shipped) + "\n"
+    assert "Configs without rows yet: `Bicycle-goal-VehicleSpeedSteeringAngle-her`" in (
+        page.read_text())
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# x\n{README_BEGIN}\nstale\n{README_END}\nrest\n")
+    out = tmp_path / "results.md"
     assert main(["benchmark", "--table", "--csv", str(root / DEFAULT_CSV), "--readme",
-                 str(copy)]) == 0
-    assert copy.read_text() == readme
+                 str(readme), "--page", str(out)]) == 0
+    assert readme_table(readme.read_text()) == readme_summary(rows)
+    assert readme.read_text().endswith(f"{README_END}\nrest\n")
+    assert out.read_text() == page.read_text()
+    summary = readme_summary(rows)
+    assert "| goal |" in summary and "docs/topics/results.md" in summary
+    shown = readme_table((root / "README.md").read_text())
+    if shown is not None:  # the README carries the summary between its markers
+        assert shown == summary
     plain = tmp_path / "x.md"
     plain.write_text("# x\n")
     with pytest.raises(ValueError, match="no results markers"):
@@ -352,13 +390,12 @@ def test_pool_worker_compiles_with_one_numba_thread():
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    from wheelgym.agents.benchmark import _worker_init
 
     env = {k: os.environ.get(k) for k in ("NUMBA_NUM_THREADS",)}
     os.environ["NUMBA_NUM_THREADS"] = "2"  # what the parent (2 cores) has
     try:
         with ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"),
-                                 initializer=_worker_init) as pool:
+                                 initializer=worker_init) as pool:
             assert pool.submit(_compile_something_new, 10).result(timeout=300) == (45, 1)
     finally:
         for k, v in env.items():

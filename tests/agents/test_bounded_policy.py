@@ -23,16 +23,18 @@ from wheelgym.agents.train import train  # noqa: E402
 
 def test_mean_bound_is_checked_and_written_only_when_set():
     plain = parse_config(tiny_config())
-    assert plain.mean_bound is None and "mean_bound" not in plain.to_dict()["wheelgym"]
+    assert plain.mean_bound is None
+    assert "mean_bound" not in plain.to_dict()["wheelgym/ThreeWheel-v0"]["policy_kwargs"]
     cfg = parse_config(tiny_config(mean_bound=1.2))
-    assert cfg.mean_bound == 1.2 and cfg.to_dict()["wheelgym"]["mean_bound"] == 1.2
+    pk = cfg.to_dict()["wheelgym/ThreeWheel-v0"]["policy_kwargs"]
+    assert cfg.mean_bound == 1.2 and pk["mean_bound"] == 1.2
     assert parse_config(cfg.to_dict()) == cfg
     assert config_digest(cfg) != config_digest(plain)  # a new setting: its own rows
     for bad in (0.9, -1.0, float("inf"), "1.1", True):
         with pytest.raises(ValueError, match="mean_bound"):
             parse_config(tiny_config(mean_bound=bad))
     sac = tiny_sac_config(mean_bound=1.1)
-    with pytest.raises(ValueError, match=r"mean_bound is for \['ppo', 'a2c'\].*'sac'"):
+    with pytest.raises(ValueError, match=r"policy_kwargs unknown key 'mean_bound'"):
         parse_config(sac)
     sde = tiny_config(mean_bound=1.1)
     sde["wheelgym/ThreeWheel-v0"]["use_sde"] = True
@@ -97,7 +99,7 @@ def test_a_bounded_run_saves_and_loads_its_policy(tmp_path):
     res = train(cfg, runs_root=tmp_path, progress=False)
     assert res.status == "finished"
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
-    assert written["wheelgym"]["mean_bound"] == 1.3
+    assert written["wheelgym/ThreeWheel-v0"]["policy_kwargs"]["mean_bound"] == 1.3
     agent = load_agent(res.run_dir / "model.zip", "ppo", res.run_dir / "vecnormalize.pkl")
     pol = agent.model.policy
     assert isinstance(pol, BoundedMeanPolicy) and pol.mean_bound == 1.3

@@ -14,6 +14,7 @@ import torch as th  # noqa: E402
 
 from tests.agents.test_agents_train import (  # noqa: E402
     tiny_config,
+    tiny_config_flat,
     tiny_sac_config,
     train_and_interrupt,
 )
@@ -29,6 +30,7 @@ from wheelgym.agents.clone import (  # noqa: E402
 )
 from wheelgym.agents.common import build_model, make_train_env, wrap_normalize  # noqa: E402
 from wheelgym.agents.config import parse_config  # noqa: E402
+from wheelgym.agents.pipeline import migrate  # noqa: E402
 from wheelgym.agents.policies import load_agent  # noqa: E402
 from wheelgym.agents.train import latest_model, resume, train  # noqa: E402
 
@@ -36,59 +38,45 @@ NAV = {"task": "navigate", "action_mode": "VehicleSpeedHeadingRate"}
 
 
 def _nav_config(**wg):
-    data = tiny_config(**wg)
+    data = tiny_config_flat(**wg)
     block = data.pop("wheelgym/ThreeWheel-v0")
     block["policy_kwargs"] = {"net_arch": [64, 64]}
     data["wheelgym/DiffDrive-v0"] = block
     data["wheelgym"]["env_kwargs"] = dict(NAV)
     data["wheelgym"]["vec_env"] = "native"
-    return data
+    return migrate(data)
 
 
-def test_clone_baseline_is_checked_and_written_only_when_set():
+def test_the_clone_stage_is_checked_and_written_only_when_set():
     plain = parse_config(tiny_config())
-    assert plain.clone_baseline is None
-    assert "clone_baseline" not in plain.to_dict()["wheelgym"]
+    assert plain.pipeline == () and "pipeline" not in plain.to_dict()["wheelgym"]
     cfg = parse_config(tiny_config(clone_baseline=4096))
-    assert cfg.clone_baseline == 4096 and cfg.to_dict()["wheelgym"]["clone_baseline"] == 4096
+    first = cfg.pipeline[0]
+    assert (first.kind, first.teacher, first.steps) == ("imitate", "baseline", 4096)
+    assert cfg.to_dict()["wheelgym"]["pipeline"][0] == {"stage": "imitate",
+                                                        "teacher": "baseline", "steps": 4096}
     assert parse_config(cfg.to_dict()) == cfg
     assert config_digest(cfg) != config_digest(plain)
-    for bad in (0, -5, 1.5, "100", True):
-        with pytest.raises(ValueError, match="clone_baseline"):
-            parse_config(tiny_config(clone_baseline=bad))
-    rounds = parse_config(tiny_config(clone_baseline=4096, clone_rounds=3))
-    assert rounds.clone_rounds == 3 and rounds.to_dict()["wheelgym"]["clone_rounds"] == 3
-    assert "clone_rounds" not in cfg.to_dict()["wheelgym"] and cfg.clone_rounds is None
-    assert parse_config(rounds.to_dict()) == rounds
-    assert config_digest(rounds) != config_digest(cfg)
-    with pytest.raises(ValueError, match="clone_rounds needs clone_baseline"):
-        parse_config(tiny_config(clone_rounds=2))
-    for bad in (0, 2.5, "3"):
-        with pytest.raises(ValueError, match="clone_rounds"):
-            parse_config(tiny_config(clone_baseline=4096, clone_rounds=bad))
-    epochs = parse_config(tiny_config(clone_baseline=4096, clone_epochs=4))
-    assert epochs.clone_epochs == 4 and epochs.to_dict()["wheelgym"]["clone_epochs"] == 4
-    assert "clone_epochs" not in cfg.to_dict()["wheelgym"] and cfg.clone_epochs is None
-    assert parse_config(epochs.to_dict()) == epochs
-    assert config_digest(epochs) != config_digest(cfg)
-    with pytest.raises(ValueError, match="clone_epochs needs clone_baseline"):
-        parse_config(tiny_config(clone_epochs=2))
-    for bad in (0, 2.5, "3", True):
-        with pytest.raises(ValueError, match="clone_epochs"):
-            parse_config(tiny_config(clone_baseline=4096, clone_epochs=bad))
-    force = parse_config(tiny_config(clone_baseline=4096, clone_internal_force=10))
-    assert force.clone_internal_force == 10.0
-    assert force.to_dict()["wheelgym"]["clone_internal_force"] == 10.0
-    assert "clone_internal_force" not in cfg.to_dict()["wheelgym"]
-    assert parse_config(force.to_dict()) == force
-    assert config_digest(force) != config_digest(cfg)
-    with pytest.raises(ValueError, match="clone_internal_force needs clone_baseline"):
-        parse_config(tiny_config(clone_internal_force=1.0))
-    for bad in (-1.0, float("nan"), "3", True):
-        with pytest.raises(ValueError, match="clone_internal_force"):
-            parse_config(tiny_config(clone_baseline=4096, clone_internal_force=bad))
-    sac = tiny_sac_config(clone_baseline=100)
-    with pytest.raises(ValueError, match=r"clone_baseline is for \['ppo', 'a2c'\].*'sac'"):
+    assert cfg.recipe == "clone+rl" and plain.recipe == "scratch"
+    for key, good in (("clone_rounds", 3), ("clone_epochs", 4), ("clone_internal_force", 10)):
+        other = parse_config(tiny_config(clone_baseline=4096, **{key: good}))
+        assert parse_config(other.to_dict()) == other
+        assert config_digest(other) != config_digest(cfg)
+    assert cfg.pipeline[0].resolved() == {"rounds": 1, "epochs": 10, "lr": 1e-3,
+                                          "internal_force": 0.0}
+    stage = {"stage": "imitate", "teacher": "baseline", "steps": 4096}
+    for key, bad in (("steps", 0), ("steps", 1.5), ("steps", "100"), ("steps", True),
+                     ("rounds", 0), ("rounds", 2.5), ("epochs", "3"), ("epochs", True),
+                     ("internal_force", -1.0),
+                     ("internal_force", "3"), ("lr", 0.0)):
+        data = tiny_config()
+        data["wheelgym"]["pipeline"] = [{**stage, key: bad}, {"stage": "rl"}]
+        with pytest.raises(ValueError, match=rf"pipeline\[0\] \(imitate\): {key} "):
+            parse_config(data)
+    sac = tiny_sac_config()
+    sac["wheelgym"]["pipeline"] = [stage, {"stage": "rl"}]
+    with pytest.raises(ValueError, match=r"pipeline\[0\] \(imitate\) is for \['ppo', "
+                                         r"'a2c'\].*'sac'"):
         parse_config(sac)
 
 
@@ -141,18 +129,18 @@ def test_a_cloned_run_records_the_fit_and_trains_on(tmp_path):
     res = train(cfg, runs_root=tmp_path, progress=False)
     assert res.status == "finished" and res.timesteps == 1024  # demonstration not counted
     info = json.loads((res.run_dir / "run.json").read_text())
-    assert info["clone"]["steps"] == 2048
-    assert info["clone"]["mse_after"] < info["clone"]["mse_before"]
-    assert info["wall_s"] >= info["clone"]["wall_s"]
+    assert info["stages"][0]["steps"] == 2048
+    assert info["stages"][0]["mse_after"] < info["stages"][0]["mse_before"]
+    assert info["wall_s"] >= info["stages"][0]["wall_s"]
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
-    assert written["wheelgym"]["clone_baseline"] == 2048
-    assert info["clone"]["epochs"] == 10  # clone.EPOCHS
+    assert written["wheelgym"]["pipeline"][0]["steps"] == 2048
+    assert info["stages"][0]["epochs"] == 10  # clone.EPOCHS
     # clone_epochs: fewer passes over the same rows (same seed) leave a larger error
     one = train(parse_config(_nav_config(clone_baseline=2048, clone_epochs=1)),
                 runs_root=tmp_path / "one", progress=False)
-    fit_one = json.loads((one.run_dir / "run.json").read_text())["clone"]
-    assert fit_one["epochs"] == 1 and fit_one["mse_before"] == info["clone"]["mse_before"]
-    assert fit_one["mse_after"] > info["clone"]["mse_after"], (fit_one, info["clone"])
+    fit_one = json.loads((one.run_dir / "run.json").read_text())["stages"][0]
+    assert fit_one["epochs"] == 1 and fit_one["mse_before"] == info["stages"][0]["mse_before"]
+    assert fit_one["mse_after"] > info["stages"][0]["mse_after"], (fit_one, info["stages"][0])
 
 
 def test_returns_to_go_discount_to_each_rows_episode_end():
@@ -172,30 +160,30 @@ def test_ctrl_c_during_the_clone_keeps_the_model_and_resume_clones_again(tmp_pat
     train_and_interrupt(cfg_path, run, "cloning")
     info = json.loads((run / "run.json").read_text())
     assert info["status"] == "interrupted" and info["timesteps"] == 0, info
-    clone = info["clone"]
+    clone = info["stages"][0]
     assert clone["interrupted"] and 0 < clone["steps"] < 50_000_000, clone
     model_path, stats = latest_model(run)
     assert load_agent(model_path, "ppo", stats).obs_norm is not None
     # resume clones again (a short demonstration now) and then trains
     written = yaml.safe_load((run / "config.yml").read_text())
-    written["wheelgym"]["clone_baseline"] = 2048
+    written["wheelgym"]["pipeline"][0]["steps"] = 2048
     (run / "config.yml").write_text(yaml.safe_dump(written))
     res = resume(run, progress=False)
     assert res.status == "finished" and res.timesteps == 1024
     info = json.loads((run / "run.json").read_text())
-    assert info["clone"]["steps"] == 2048 and "interrupted" not in info["clone"], info
-    assert info["clone"]["mse_after"] < info["clone"]["mse_before"]
+    assert info["stages"][0]["steps"] == 2048 and "interrupted" not in info["stages"][0], info
+    assert info["stages"][0]["mse_after"] < info["stages"][0]["mse_before"]
 
 
 TORQUE_NAV = {"task": "navigate", "action_mode": "torque"}
 
 
 def _torque_config(**wg):
-    data = tiny_config(**wg)
+    data = tiny_config_flat(**wg)
     data["wheelgym"]["env_kwargs"] = dict(TORQUE_NAV)
     data["wheelgym"]["vec_env"] = "native"
     data["wheelgym/ThreeWheel-v0"]["policy_kwargs"] = {"net_arch": [64, 64]}
-    return data
+    return migrate(data)
 
 
 def test_internal_force_rows_measure_the_null_space_part_of_an_action():
@@ -262,7 +250,7 @@ def test_weighting_the_internal_force_of_the_error_lowers_the_clones_internal_fo
 def test_a_run_with_clone_internal_force_records_the_force_error(tmp_path):
     cfg = parse_config(_torque_config(clone_baseline=2048, clone_internal_force=10.0))
     res = train(cfg, runs_root=tmp_path, progress=False)
-    fit = json.loads((res.run_dir / "run.json").read_text())["clone"]
+    fit = json.loads((res.run_dir / "run.json").read_text())["stages"][0]
     assert fit["internal_force_weight"] == 10.0
     # an untrained mean near 0 errs by the baseline's action, which has almost no internal
     # force; the figures are the held measure of the fit (the weighted test above)

@@ -22,8 +22,10 @@ optuna = pytest.importorskip("optuna")
 pytest.importorskip("psycopg")
 pytest.importorskip("ray")
 
-from wheelgym.agents.benchmark import _Job, _run_job, read_rows, run_jobs  # noqa: E402
+from wheelgym.agents.benchmark import read_rows, run_jobs  # noqa: E402
 from wheelgym.agents.cluster import LocalPostgres, run_on_ray  # noqa: E402
+from wheelgym.agents.grid import Job as _Job  # noqa: E402
+from wheelgym.agents.grid import run_job as _run_job  # noqa: E402
 from wheelgym.agents.tune import make_storage  # noqa: E402
 from wheelgym.cli import main  # noqa: E402
 

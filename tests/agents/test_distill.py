@@ -37,28 +37,30 @@ def _core(venv):
     return baseline(venv).core
 
 
-def test_distill_keys_are_checked_and_written_only_when_set():
+def test_the_distill_stage_is_checked_and_written_only_when_set():
     plain = parse_config(tiny_config())
-    assert plain.distill_internal_force is None
-    assert "distill_internal_force" not in plain.to_dict()["wheelgym"]
     cfg = parse_config(tiny_config(distill_internal_force=4096, distill_rounds=3,
                                    distill_weight=300.0))
-    wg = cfg.to_dict()["wheelgym"]
-    assert (wg["distill_internal_force"], wg["distill_rounds"], wg["distill_weight"]) == \
-        (4096, 3, 300.0)
+    last = cfg.to_dict()["wheelgym"]["pipeline"][-1]
+    assert last == {"stage": "imitate", "teacher": "self_without_internal_force",
+                    "steps": 4096, "rounds": 3, "internal_force": 300.0}
     assert parse_config(cfg.to_dict()) == cfg
     assert config_digest(cfg) != config_digest(plain)
-    for key, bad in (("distill_internal_force", 0), ("distill_internal_force", 1.5),
-                     ("distill_rounds", 0), ("distill_weight", -1.0),
-                     ("distill_weight", float("nan"))):
-        extra = {} if key == "distill_internal_force" else {"distill_internal_force": 4096}
-        with pytest.raises(ValueError, match=key):
-            parse_config(tiny_config(**extra, **{key: bad}))
-    for key, val in (("distill_rounds", 2), ("distill_weight", 10.0)):
-        with pytest.raises(ValueError, match=f"{key} needs distill_internal_force"):
-            parse_config(tiny_config(**{key: val}))
-    with pytest.raises(ValueError, match="distill_internal_force is for"):
-        parse_config(tiny_sac_config(distill_internal_force=4096))
+    assert cfg.recipe == "rl+distill"
+    default = parse_config(tiny_config(distill_internal_force=4096)).pipeline[-1]
+    assert default.resolved() == {"rounds": 6, "epochs": 10, "lr": 1e-4,
+                                  "internal_force": 1000.0}
+    stage = {"stage": "imitate", "teacher": "self_without_internal_force", "steps": 4096}
+    for key, bad in (("steps", 0), ("steps", 1.5), ("rounds", 0),
+                     ("internal_force", -1.0)):
+        data = tiny_config()
+        data["wheelgym"]["pipeline"] = [{"stage": "rl"}, {**stage, key: bad}]
+        with pytest.raises(ValueError, match=rf"pipeline\[1\] \(imitate\): {key} "):
+            parse_config(data)
+    sac = tiny_sac_config()
+    sac["wheelgym"]["pipeline"] = [{"stage": "rl"}, stage]
+    with pytest.raises(ValueError, match=r"pipeline\[1\] \(imitate\) is for"):
+        parse_config(sac)
 
 
 def test_without_internal_force_keeps_the_generalized_force_and_drops_the_rest():
@@ -143,16 +145,16 @@ def test_a_distilled_run_records_the_fit(tmp_path):
     res = train(cfg, runs_root=tmp_path, progress=False)
     assert res.status == "finished" and res.timesteps == 1024  # distillation not counted
     info = json.loads((res.run_dir / "run.json").read_text())
-    fit = info["distill"]
+    fit = info["stages"][-1]
     assert fit["steps"] == 2048 and fit["timesteps"] == 1024 and len(fit["rounds"]) == 2
     assert fit["force_after"] <= fit["rounds"][0]["force_before"], fit
     assert info["wall_s"] >= fit["wall_s"] > 0
     written = yaml.safe_load((res.run_dir / "config.yml").read_text())
-    assert written["wheelgym"]["distill_internal_force"] == 2048
+    assert written["wheelgym"]["pipeline"][-1]["steps"] == 2048
     # resuming a finished run with nothing left to train does not distil again
     again = resume(res.run_dir, progress=False)
     assert again.status == "finished"
-    assert json.loads((res.run_dir / "run.json").read_text())["distill"] == fit
+    assert json.loads((res.run_dir / "run.json").read_text())["stages"][-1] == fit
 
 
 def test_ctrl_c_during_the_distillation_keeps_the_model_and_resume_distils_again(tmp_path):
@@ -164,13 +166,13 @@ def test_ctrl_c_during_the_distillation_keeps_the_model_and_resume_distils_again
     train_and_interrupt(cfg_path, run, "distilling")
     info = json.loads((run / "run.json").read_text())
     assert info["status"] == "interrupted" and info["timesteps"] == 1024, info
-    assert info["distill"]["interrupted"] and (run / "model.zip").is_file(), info
+    assert info["stages"][-1]["interrupted"] and (run / "model.zip").is_file(), info
     written = yaml.safe_load((run / "config.yml").read_text())
-    written["wheelgym"]["distill_internal_force"] = 2048
+    written["wheelgym"]["pipeline"][-1]["steps"] = 2048
     (run / "config.yml").write_text(yaml.safe_dump(written))
     res = resume(run, progress=False)
     assert res.status == "finished" and res.timesteps == 1024
-    fit = json.loads((run / "run.json").read_text())["distill"]
+    fit = json.loads((run / "run.json").read_text())["stages"][-1]
     assert fit["steps"] == 2048 and "interrupted" not in fit, fit
 
 

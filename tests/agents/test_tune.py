@@ -20,6 +20,7 @@ optuna = pytest.importorskip("optuna")
 
 import wheelgym.agents.tune as tune_mod  # noqa: E402
 from wheelgym.agents.config import load_config, parse_config  # noqa: E402
+from wheelgym.agents.pipeline import migrate  # noqa: E402
 from wheelgym.agents.train import EVAL_COLUMNS, train  # noqa: E402
 from wheelgym.agents.tune import (  # noqa: E402
     SEARCH_SPACES,
@@ -56,7 +57,8 @@ def _body(path: Path) -> str:
 
 def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path, capsys):
     data = _config()  # the distillation (torque mode only) would fail these velocity trials
-    data["wheelgym"].update(distill_internal_force=4096, distill_rounds=2)
+    data["wheelgym"]["pipeline"] = [{"stage": "rl"}, {
+        "stage": "imitate", "teacher": "self_without_internal_force", "steps": 4096, "rounds": 2}]
     cfg = _write(tmp_path, data)
     root = tmp_path / "runs"
     rc = main(["tune", str(cfg), "--trials", "2", "--timesteps", "512", "--evals", "2",
@@ -72,7 +74,7 @@ def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path,
     assert tuned.n_timesteps == 100_000 and tuned.seed == 0 and tuned.eval_freq == 20_000
     assert tuned.hyperparams["n_epochs"] in SEARCH_SPACES["ppo"]["n_epochs"][1]
     # trials train without the distillation after training; the written config keeps it
-    assert (tuned.distill_internal_force, tuned.distill_rounds) == (4096, 2)
+    assert (tuned.pipeline[-1].steps, tuned.pipeline[-1].rounds) == (4096, 2)
 
     study = optuna.load_study(study_name="tiny", storage=f"sqlite:///{root / 'tiny' / 'study.db'}")
     first = study.trials[0]
@@ -82,7 +84,7 @@ def test_tiny_study_writes_a_loadable_config_and_export_gives_the_same(tmp_path,
     assert [t.user_attrs["seed"] for t in study.trials] == [0, 1]
     for t in study.trials:
         assert Path(t.user_attrs["run_dir"]).parent == root / "tiny"
-        assert "distill_internal_force" not in t.user_attrs["config"]["wheelgym"]
+        assert "pipeline" not in t.user_attrs["config"]["wheelgym"]
 
     exported = tmp_path / "exported.yml"
     rc = main(["tune", "--export", "tiny", "--storage", f"sqlite:///{root / 'tiny' / 'study.db'}",
@@ -167,14 +169,15 @@ def test_search_spaces_give_valid_configs(algo):
     bounded["wheelgym"].update(mean_bound=1.1, clone_baseline=4096, clone_rounds=2,
                                clone_epochs=3, clone_internal_force=5.0,
                                distill_internal_force=2048, distill_weight=10.0)
-    wg = _base_for_algo(parse_config(bounded), algo)["wheelgym"]
-    on_policy = algo in ("ppo", "a2c")  # the keys are kept for these, dropped for the others
-    assert wg.get("mean_bound") == (1.1 if on_policy else None)
-    assert (wg.get("distill_internal_force"), wg.get("distill_weight")) == (
-        (2048, 10.0) if on_policy else (None, None))
-    assert (wg.get("clone_baseline"), wg.get("clone_rounds"), wg.get("clone_epochs"),
-            wg.get("clone_internal_force")) == (
-        (4096, 2, 3, 5.0) if on_policy else (None, None, None, None))
+    bounded = migrate(bounded)
+    stages = bounded["wheelgym"]["pipeline"]
+    based = _base_for_algo(parse_config(bounded), algo)
+    wg = based["wheelgym"]
+    on_policy = algo in ("ppo", "a2c")  # the stages are kept for these, dropped for the others
+    env_id = next(k for k in based if k != "wheelgym")
+    assert based[env_id].get("policy_kwargs", {}).get("mean_bound") == (
+        1.1 if on_policy else None)
+    assert wg.get("pipeline") == (stages if on_policy else None)
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
     for _ in range(8):
         trial = study.ask()

@@ -10,7 +10,7 @@ action inside it keeps occurring, and the term can pull the mean back. The noise
 log-probabilities are SB3's own (the squash acts on the mean only, unlike SAC's squashed
 samples), so PPO's ratio and entropy are unchanged in form.
 
-Selected by ``mean_bound: b`` in a config's ``wheelgym`` block (:mod:`wheelgym.agents.config`);
+Selected by ``mean_bound: b`` in a config's ``policy_kwargs`` (:mod:`wheelgym.agents.config`);
 a saved model records the class and ``mean_bound``, and ``PPO.load`` rebuilds it (wheelgym
 must be importable).
 """

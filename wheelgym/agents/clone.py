@@ -1,18 +1,20 @@
 """Start a PPO/A2C policy from the analytic baseline (behaviour cloning before training), and
-take the internal force out of a trained one (after).
+take the internal force out of a trained one (after): the work of the pipeline's ``imitate``
+stage (:mod:`wheelgym.agents.pipeline`).
 
-The config key ``clone_baseline: N`` (``wheelgym`` block) makes :func:`wheelgym.agents.train.train`
-run the analytic baseline (:class:`wheelgym.envs.baseline.BaselinePolicy`) on the training envs for
-``N`` environment steps before PPO starts, and fit the policy's Gaussian mean to its actions by
-least squares. The envs are the training ``VecEnv`` itself (in its ``VecNormalize``, whose
-observation statistics the demonstration fills), so the clone sees exactly the observations
-PPO will. The mean network is fitted to the baseline's actions and the value network to the
-returns that followed them (without it PPO's first updates follow an untrained critic's noise
-and undo the clone: DiffDrive navigate fell from about 90% to 20-70% success within 100k
-steps); the log std and PPO's hyperparameters are the config's. The demonstration steps are
-not counted in ``n_timesteps``; their time is in the run's wall time.
+``{stage: imitate, teacher: baseline, steps: N}`` before the ``rl`` stage makes
+:func:`wheelgym.agents.train.train` run the analytic baseline
+(:class:`wheelgym.envs.baseline.BaselinePolicy`) on the training envs for ``N`` environment
+steps, and fit the policy's Gaussian mean to its actions by least squares
+(:func:`clone_baseline`). The envs are the training ``VecEnv`` itself (in its ``VecNormalize``,
+whose observation statistics the demonstration fills), so the clone sees exactly the
+observations PPO will. The mean network is fitted to the baseline's actions and the value
+network to the returns that followed them, so that PPO's first updates follow the clone's
+advantages rather than an untrained critic's noise; the log std and PPO's hyperparameters are
+the config's. The demonstration steps are not counted in ``n_timesteps``; their time is in the
+run's wall time.
 
-With ``clone_rounds: K`` the ``N`` steps come in ``K`` rounds (DAgger, Ross, Gordon & Bagnell
+With ``rounds: K`` the ``N`` steps come in ``K`` rounds (DAgger, Ross, Gordon & Bagnell
 2011): after the first, the clone as fitted so far drives and the baseline labels the states
 it reaches, and each round refits on all rows so far. A clone trained only on the baseline's
 states drifts into states the baseline never visits, where it has no label.
@@ -22,31 +24,31 @@ knob                        value
 =========================== ===============================================================
 demonstration               ``N`` steps over the ``n_envs`` training envs (``N // n_envs``
                             vector steps), deterministic baseline actions in the action box;
-                            in ``K`` rounds of ``N // K`` with ``clone_rounds``
-fit                         Adam, learning rate 1e-3, batches of 1024, :data:`EPOCHS` passes
-                            (``clone_epochs`` where set; per round, over all rows so far),
-                            shuffled by a generator seeded
-                            with the config's seed (plus the round's index)
-loss                        mean squared error of the Gaussian mean (after ``mean_bound``'s
-                            squash where set) to the baseline's action, plus that of the
-                            value estimate to the discounted return (``gamma`` of the model);
-                            with ``clone_internal_force: w`` (torque mode, robots with an
-                            internal force) plus ``w`` times the squared internal force of
-                            the action error (:func:`internal_force_rows`)
+                            in ``K`` rounds of ``N // K`` with ``rounds``
+fit                         Adam at ``lr`` (default :data:`LR`), batches of :data:`BATCH`,
+                            ``epochs`` passes (default :data:`EPOCHS`; per round, over all
+                            rows so far), shuffled by a generator seeded with the config's
+                            seed (plus the round's index)
+loss                        mean squared error of the Gaussian mean (after
+                            ``policy_kwargs.mean_bound``'s squash where set) to the baseline's
+                            action, plus that of the value estimate to the discounted return
+                            (``gamma`` of the model); with ``internal_force: w`` (torque mode,
+                            robots with an internal force) plus ``w`` times the squared
+                            internal force of the action error (:func:`internal_force_rows`)
 =========================== ===============================================================
 
 An action error in the null space of the motors (TW-6, paper (36)) moves nothing but is
 internal force; the plain least squares weighs it like an error that moves the robot, so a
 clone of the load distribution, which puts almost nothing there, fights itself by as much as
-it misses. ``clone_internal_force`` weighs that part of the error more.
+it misses. ``internal_force`` weighs that part of the error more.
 
-The config key ``distill_internal_force: N`` works the other way round, after training
-(:func:`distill_internal_force`): the trained policy is its own teacher, its actions less their
-internal force (:func:`without_internal_force`, the same generalized force ``J^T tau``) the
-labels, the states those the policy reaches (``N`` steps in ``distill_rounds`` DAgger rounds).
-PPO leaves internal force that its reward pays for: the ThreeWheel track-torque agent after 500k
-steps with the internal-force term at 0.2 had 78x the baseline's, and removed exactly it keeps
-its motion at 0.91x (``benchmarks/distill_internal_force.py``).
+``{stage: imitate, teacher: self_without_internal_force, steps: N}`` after the ``rl`` stage
+works the other way round (:func:`distill_internal_force`): the trained policy is its own
+teacher, its actions less their internal force (:func:`without_internal_force`, the same
+generalized force ``J^T tau``) the labels, the states those the policy reaches (``N`` steps in
+``rounds`` DAgger rounds). It takes out the internal force that PPO's reward leaves in a
+torque-mode policy while keeping its motion. The measurements behind the defaults below are in
+docs/topics/research-log-configs.md (section "The imitate stage's defaults").
 """
 
 from __future__ import annotations
@@ -56,19 +58,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-#: Passes over the demonstration. Measured on DiffDrive navigate (200k steps): a mean squared
-#: error of 1.3e-3 after 5 passes, 1.0e-3 after 10, 6.9e-4 after 30; 30 passes over 1M steps
-#: took 310 s of a 400 s run on this 2-core machine, and PPO fine-tunes the mean anyway.
+#: Passes over the demonstration per round (docs/topics/research-log-configs.md, "The imitate
+#: stage's defaults").
 EPOCHS = 10
 #: Adam's learning rate and the batch size of the fit.
 LR = 1e-3
 BATCH = 1024
 #: Adam's learning rate of :func:`distill_internal_force`'s fits, and its default rounds and
-#: internal-force weight. ``python benchmarks/distill_internal_force.py`` on the PPO checkpoint
-#: (500k steps) of the ThreeWheel track-torque benchmark's seed 1, 300k rows, 50 evaluation
-#: episodes, internal force over the baseline's (the agent: 78x; every row 100% success):
-#: 6 rounds, weight 1000, 1e-4: 2.17x; at 1e-3: 2.32x; weight 3000: 2.15x; weight 0: 2.66x;
-#: 3 rounds: 2.76x; 1 round (the agent's own states only): 4.99x.
+#: internal-force weight (docs/topics/research-log-configs.md, "The imitate stage's defaults").
 DISTILL_LR = 1e-4
 DISTILL_ROUNDS = 6
 DISTILL_WEIGHT = 1000.0
@@ -343,7 +340,7 @@ def force_error(model: Any, obs: np.ndarray, actions: np.ndarray,
 def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
                    epochs: int | None = None,
-                   internal_force: float | None = None) -> dict[str, Any]:
+                   internal_force: float | None = None, lr: float = LR) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -360,6 +357,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     ``clone_internal_force``) weighs the internal force of the action error in the fit
     (:func:`fit_mean`); the figures then add ``internal_force_weight`` and the mean
     :func:`force_error` before and after (``force_error_before``, ``force_error_after``).
+    ``lr``: Adam's learning rate of the fits (default :data:`LR`).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -390,7 +388,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
             break
         after = fit_mean(model, obs, actions, returns, epochs=epochs or EPOCHS, seed=seed + k,
                          stop=stop, force_rows=rows,
-                         force_weight=float(internal_force or 0.0))
+                         force_weight=float(internal_force or 0.0), lr=lr)
     fit: dict[str, Any] = {"steps": int(len(obs)), "epochs": epochs or EPOCHS,
                            "mse_before": before,
                            "mse_after": None if np.isnan(after) else after,
@@ -431,7 +429,6 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
     then say ``interrupted: True``). ``ValueError`` for a robot without an internal force or an
     action mode other than ``torque``.
     """
-    import torch as th
 
     from wheelgym.envs.baseline import baseline
     from wheelgym.tasks.tasks import internal_force_scale
@@ -458,21 +455,8 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
     try:
         for k in range(rounds):
             start = len(O)
-            episodes = successes = 0
-            for _ in range(max(1, per)):
-                if stop is not None and O and stop():
-                    break
-                with th.no_grad():
-                    label = teacher.predict(obs, deterministic=True)[0]
-                N, tau_max = _null_space(core, "distill_internal_force")  # once per step
-                O.append(np.asarray(obs, dtype=np.float32).copy())
-                A.append(_less_internal_force(N, tau_max, label))
-                F.append(_force_rows(N, tau_max, scale))
-                act = model.predict(obs, deterministic=True)[0]
-                obs, _, done, infos = venv.step(act)
-                for i in np.flatnonzero(done):
-                    episodes += 1
-                    successes += bool(infos[i].get("is_success", False))
+            obs, episodes, successes = _distill_rows(model, teacher, core, scale, obs, per,
+                                                     stop, O, A, F)
             new = slice(start, len(O))
             log.append({"episodes": episodes,
                         "success": round(successes / episodes, 4) if episodes else None,
@@ -498,6 +482,33 @@ def distill_internal_force(model: Any, steps: int, rounds: int = DISTILL_ROUNDS,
     if stop is not None and stop():
         fit["interrupted"] = True
     return fit
+
+
+def _distill_rows(model: Any, teacher: Any, core: Any, scale: float, obs: np.ndarray,
+                  per: int, stop: Callable[[], bool] | None, O: list, A: list,
+                  F: list) -> tuple[np.ndarray, int, int]:
+    """One distillation round's rows: ``per`` vector steps in which the student drives and the
+    teacher, less its internal force, labels (appended to ``O``, ``A``, ``F``); the last
+    observation, and the episodes that ended and how many succeeded."""
+    import torch as th
+
+    venv = model.get_env()
+    episodes = successes = 0
+    for _ in range(max(1, per)):
+        if stop is not None and O and stop():
+            break
+        with th.no_grad():
+            label = teacher.predict(obs, deterministic=True)[0]
+        N, tau_max = _null_space(core, "distill_internal_force")  # once per step
+        O.append(np.asarray(obs, dtype=np.float32).copy())
+        A.append(_less_internal_force(N, tau_max, label))
+        F.append(_force_rows(N, tau_max, scale))
+        act = model.predict(obs, deterministic=True)[0]
+        obs, _, done, infos = venv.step(act)
+        for i in np.flatnonzero(done):
+            episodes += 1
+            successes += bool(infos[i].get("is_success", False))
+    return obs, episodes, successes
 
 
 def _episodes(demo: Demonstration) -> dict[str, Any]:

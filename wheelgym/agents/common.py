@@ -174,9 +174,7 @@ def build_model(config: TrainConfig, venv, tensorboard_log: str | None = None, v
     if config.mean_bound is not None:  # MlpPolicy with the squashed mean (checked by the loader)
         from wheelgym.agents.bounded_policy import BoundedMeanPolicy
 
-        policy = BoundedMeanPolicy
-        kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}),
-                                   "mean_bound": config.mean_bound}
+        policy = BoundedMeanPolicy  # policy_kwargs.mean_bound is its keyword argument
     try:
         return cls(
             policy,

@@ -19,6 +19,9 @@ would otherwise carry (algorithm, env keyword arguments, seed, evaluation settin
       eval_freq: 20000               # environment steps between evaluations (0: none)
       eval_episodes: 10
       checkpoint_freq: 50000         # environment steps between checkpoints (0: none)
+      pipeline:                      # optional: the training's stages (wheelgym.agents.pipeline)
+        - {stage: imitate, teacher: baseline, steps: 200000}
+        - {stage: rl}
 
 Files are read with :func:`safe_load_config_yaml` (``yaml.safe_load`` semantics, but YAML
 aliases ``*name`` are refused: a config never needs them, and nested aliases can expand
@@ -27,14 +30,18 @@ exponentially; merge keys ``<<: *x`` are aliases too) and nothing in them is eva
 :data:`ACTIVATIONS`). Every unknown key and every bad value raises ``ValueError`` (one line)
 naming the file, the key and the valid choices.
 
-The ``wheelgym`` block and the RL Zoo's own keys (``policy``, ``n_envs``, ``n_timesteps``,
-``normalize``, ``noise_type``, ``noise_std``) have a schema here. The algorithm's keys are read
-from Stable-Baselines3's signatures (imported on first use, then cached per algorithm): the
-keyword arguments of the algorithm class, and for ``policy_kwargs`` those of its ``MlpPolicy``
-class, whose annotated type has a plain YAML form (numbers, booleans, strings, lists, mappings,
-``"lin_<number>"`` for a schedule); arguments the run supplies (env, seed, device, ...) and
-class-typed ones are left out, except ``activation_fn`` (by name). Values are checked against
-the annotated type, then against the ranges of :data:`_LIMITS` where one is given.
+Every key, with its type, default and valid values: docs/topics/configs.md. The ``wheelgym``
+block's recipe keys of old (``clone_baseline``, ``mean_bound``, ...) are refused with their
+new spelling (:func:`wheelgym.agents.pipeline.legacy_message`); ``mean_bound`` is a key of
+``policy_kwargs`` (PPO/A2C). The ``wheelgym`` block and the RL Zoo's own keys (``policy``,
+``n_envs``, ``n_timesteps``, ``normalize``, ``noise_type``, ``noise_std``) have a schema here.
+The algorithm's keys are read from Stable-Baselines3's signatures (imported on first use, then
+cached per algorithm): the keyword arguments of the algorithm class, and for ``policy_kwargs``
+those of its ``MlpPolicy`` class, whose annotated type has a plain YAML form (numbers, booleans,
+strings, lists, mappings, ``"lin_<number>"`` for a schedule); arguments the run supplies (env,
+seed, device, ...) and class-typed ones are left out, except ``activation_fn`` (by name). Values
+are checked against the annotated type, then against the ranges of :data:`_LIMITS` where one is
+given.
 """
 
 from __future__ import annotations
@@ -54,6 +61,7 @@ from typing import Any
 import yaml
 
 from wheelgym import resources, safe_yaml
+from wheelgym.agents import pipeline as pipeline_mod
 
 __all__ = [
     "ALGOS",
@@ -61,6 +69,7 @@ __all__ = [
     "ACTIVATIONS",
     "TrainConfig",
     "load_config",
+    "load_run_config",
     "parse_config",
     "default_config_path",
     "configs_dir",
@@ -86,16 +95,6 @@ DEVICES: tuple[str, ...] = ("cpu", "cuda", "auto")
 
 #: The on-policy algorithms (rollouts of ``n_steps``; a Gaussian policy with a free mean).
 ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
-
-#: The ``wheelgym`` block's keys of the clone (:mod:`wheelgym.agents.clone`); the first starts
-#: it, the others need it. Only for :data:`ON_POLICY` algorithms.
-CLONE_KEYS: tuple[str, ...] = ("clone_baseline", "clone_rounds", "clone_epochs",
-                               "clone_internal_force")
-
-#: The ``wheelgym`` block's keys of the internal-force distillation after training
-#: (:func:`wheelgym.agents.clone.distill_internal_force`); the first starts it, the others need
-#: it. Only for :data:`ON_POLICY` algorithms.
-DISTILL_KEYS: tuple[str, ...] = ("distill_internal_force", "distill_rounds", "distill_weight")
 
 #: Largest accepted seed (NumPy's legacy seeding and SB3's ``set_random_seed`` need < 2**32).
 MAX_SEED = 2**32 - 1
@@ -229,33 +228,6 @@ def _net_arch(v: Any) -> list | dict:
             raise ValueError(f"net_arch keys {bad} unknown; valid keys: ['pi', 'vf', 'qf']")
         return {k: layers(x) for k, x in v.items()}
     return layers(v)
-
-
-def _reward_schedule(v: Any) -> dict[str, list[list]] | None:
-    """``{term: [[step, weight], ...]}``: from ``step`` training steps on, the term's weight is
-    ``weight`` (piecewise constant; steps ascending, the first may be above 0, before it the
-    env's own weight holds). The env checks the term names when training starts."""
-    if v is None:
-        return None
-    if not isinstance(v, dict) or not v:
-        raise ValueError(f"must be a mapping term -> [[step, weight], ...], got {v!r}")
-    out: dict[str, list[list]] = {}
-    for term, points in v.items():
-        if not isinstance(term, str):
-            raise ValueError(f"term names must be strings, got {term!r}")
-        if not isinstance(points, list) or not points:
-            raise ValueError(f"{term}: must be a non-empty list of [step, weight], got {points!r}")
-        clean: list[list] = []
-        for p in points:
-            if (not isinstance(p, list) or len(p) != 2 or not _is_int(p[0]) or p[0] < 0
-                    or not _is_num(p[1])):
-                raise ValueError(f"{term}: each point must be [step >= 0 (integer), finite "
-                                 f"weight], got {p!r}")
-            if clean and p[0] <= clean[-1][0]:
-                raise ValueError(f"{term}: steps must increase, got {[q[0] for q in points]}")
-            clean.append([int(p[0]), float(p[1])])
-        out[term] = clean
-    return out
 
 
 def weights_at(schedule: Mapping[str, Sequence[Sequence[float]]] | None,
@@ -509,6 +481,9 @@ def _algo_table(algo: str) -> dict[str, Any]:
     policy_table = _signature_table(cls.policy_aliases["MlpPolicy"].__init__, _POLICY_SUPPLIED,
                                     limits, _PLAIN_FORMS)
 
+    if algo in ON_POLICY:  # the squashed Gaussian mean (wheelgym.agents.bounded_policy)
+        policy_table["mean_bound"] = _float(lo=1.0)
+
     def policy_kwargs(v: Any) -> dict:
         if not isinstance(v, dict):
             raise ValueError(
@@ -529,15 +504,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
     "vec_env": _choice(*VEC_ENVS),
     "device": _choice(*DEVICES),
     "torch_threads": _int(1),
-    "reward_schedule": _reward_schedule,
-    "mean_bound": _float(lo=1.0),
-    "clone_baseline": _int(1),
-    "clone_rounds": _int(1),
-    "clone_epochs": _int(1),
-    "clone_internal_force": _float(lo=0.0),
-    "distill_internal_force": _int(1),
-    "distill_rounds": _int(1),
-    "distill_weight": _float(lo=0.0),
+    "pipeline": None,  # checked separately (wheelgym.agents.pipeline.parse_pipeline)
 }
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
@@ -549,15 +516,7 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "vec_env": "dummy",
     "device": "cpu",
     "torch_threads": 1,
-    "reward_schedule": None,
-    "mean_bound": None,
-    "clone_baseline": None,
-    "clone_rounds": None,
-    "clone_epochs": None,
-    "clone_internal_force": None,
-    "distill_internal_force": None,
-    "distill_rounds": None,
-    "distill_weight": None,
+    "pipeline": None,
 }
 
 
@@ -572,9 +531,10 @@ class TrainConfig:
     algo           one of :data:`ALGOS`
     env_kwargs     keyword arguments of ``gym.make`` (task, action_mode, ...)
     hyperparams    algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
-                   values as in the file)
+                   values as in the file; ``policy_kwargs.mean_bound`` selects
+                   :class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`)
     n_envs         parallel environments in training
-    n_timesteps    total environment steps of training
+    n_timesteps    total environment steps of the ``rl`` stage
     normalize      ``None`` (no ``VecNormalize``) or its keyword arguments
     noise          ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
     seed           seed of the algorithm and of the training environments
@@ -584,33 +544,8 @@ class TrainConfig:
     vec_env        ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
     device         torch device
     torch_threads  ``torch.set_num_threads`` value (1 is fastest for small MLPs)
-    reward_schedule ``None`` or ``{term: [[step, weight], ...]}``: reward weights changed during
-                   training (a curriculum; piecewise constant in training steps)
-    mean_bound     ``None`` or ``b >= 1``: PPO/A2C's Gaussian mean squashed to ``b tanh(x / b)``
-                   (:class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`), so it cannot
-                   drift far past the action box where clipped samples give no gradient
-    clone_baseline ``None`` or ``N >= 1``: before PPO/A2C trains, the analytic baseline drives
-                   the training envs for ``N`` steps; the policy's Gaussian mean is fitted to
-                   its actions and the value network to the returns that followed
-                   (:mod:`wheelgym.agents.clone`; not counted in ``n_timesteps``)
-    clone_rounds   ``None`` (one round) or ``K >= 1``: the ``N`` steps in ``K`` rounds; after
-                   the first, the clone drives and the baseline labels the states it visits
-                   (DAgger), and each round refits on all rows so far
-    clone_epochs   ``None`` (:data:`wheelgym.agents.clone.EPOCHS`, 10) or ``E >= 1``: passes of
-                   each round's fit over the rows so far (the fit is most of a DAgger run's
-                   time; later rounds start from the last fit)
-    clone_internal_force ``None`` or ``w >= 0``: the fit weighs the internal force of the
-                   action error (its null-space part, TW-6) ``w`` more than the plain squared
-                   error (torque mode on a robot with an internal force; ThreeWheel)
-    distill_internal_force ``None`` or ``N >= 1``: after PPO/A2C trains, ``N`` steps in which
-                   the policy drives and its mean is refitted to its own actions less their
-                   internal force (the same motion; torque mode on a robot with an internal
-                   force; :func:`wheelgym.agents.clone.distill_internal_force`; not counted in
-                   ``n_timesteps``)
-    distill_rounds ``None`` (:data:`wheelgym.agents.clone.DISTILL_ROUNDS`, 6) or ``K >= 1``:
-                   the ``N`` steps in ``K`` rounds, each refitting on all rows so far
-    distill_weight ``None`` (:data:`wheelgym.agents.clone.DISTILL_WEIGHT`, 1000) or
-                   ``w >= 0``: the weight of the internal force of the fit's error
+    pipeline       the stages as written (:mod:`wheelgym.agents.pipeline`); ``()``: none
+                   written, plain RL (:attr:`stages` is then one ``rl`` stage)
     source         the file it came from (for messages), or ``"<dict>"``
     ============== ============================================================================
     """
@@ -630,15 +565,7 @@ class TrainConfig:
     vec_env: str = "dummy"
     device: str = "cpu"
     torch_threads: int = 1
-    reward_schedule: dict | None = None
-    mean_bound: float | None = None
-    clone_baseline: int | None = None
-    clone_rounds: int | None = None
-    clone_epochs: int | None = None
-    clone_internal_force: float | None = None
-    distill_internal_force: int | None = None
-    distill_rounds: int | None = None
-    distill_weight: float | None = None
+    pipeline: tuple = ()
     source: str = "<dict>"
 
     @property
@@ -656,6 +583,38 @@ class TrainConfig:
         parts = [robot, self.task, self.action_mode, self.algo]
         return "-".join(str(p) for p in parts if p)
 
+    @property
+    def stages(self) -> tuple:
+        """The stages training runs: :attr:`pipeline`, or one ``rl`` stage without it."""
+        return self.pipeline or (pipeline_mod.RL(),)
+
+    @property
+    def rl_stage(self) -> pipeline_mod.RL:
+        """The one ``rl`` stage."""
+        return next(s for s in self.stages if isinstance(s, pipeline_mod.RL))
+
+    @property
+    def reward_schedule(self) -> dict | None:
+        """The ``rl`` stage's reward curriculum (``None``: the env's weights throughout)."""
+        return self.rl_stage.reward_schedule
+
+    @property
+    def mean_bound(self) -> float | None:
+        """``policy_kwargs.mean_bound`` (``None``: SB3's plain ``MlpPolicy``)."""
+        return self.hyperparams.get("policy_kwargs", {}).get("mean_bound")
+
+    @property
+    def recipe(self) -> str:
+        """The recipe's short name for the results table: ``scratch`` (RL alone, with or without a
+        reward schedule), or the stages
+        joined by ``+`` (``clone`` for imitating the baseline, ``distill`` for the policy
+        itself without its internal force, ``rl``), e.g. ``clone+rl``."""
+        if not any(isinstance(s, pipeline_mod.Imitate) for s in self.pipeline):
+            return "scratch"
+        names = {"baseline": "clone", "self_without_internal_force": "distill"}
+        return "+".join(names[s.teacher] if isinstance(s, pipeline_mod.Imitate) else s.kind
+                        for s in self.pipeline)
+
     def replace(self, **changes: Any) -> TrainConfig:
         """A copy with fields changed; the result is validated again."""
         data = self.to_dict()
@@ -664,6 +623,13 @@ class TrainConfig:
         for key, value in changes.items():
             if key == "n_timesteps" or key == "n_envs":
                 block[key] = value
+            elif key == "pipeline":
+                if value:
+                    wg[key] = (value if isinstance(value, list) and value
+                               and isinstance(value[0], Mapping)
+                               else pipeline_mod.pipeline_to_list(value))
+                else:
+                    wg.pop(key, None)
             elif key in _WHEELGYM_KEYS:
                 wg[key] = value
             else:
@@ -694,14 +660,29 @@ class TrainConfig:
             "device": self.device,
             "torch_threads": self.torch_threads,
         }
-        if self.reward_schedule is not None:  # absent by default (old files stay the same)
-            wg["reward_schedule"] = copy.deepcopy(self.reward_schedule)
-        if self.mean_bound is not None:  # absent by default, like reward_schedule
-            wg["mean_bound"] = self.mean_bound
-        for key in (*CLONE_KEYS, *DISTILL_KEYS):  # absent by default, like reward_schedule
-            if getattr(self, key) is not None:
-                wg[key] = getattr(self, key)
+        if self.pipeline:  # absent for plain RL
+            wg["pipeline"] = pipeline_mod.pipeline_to_list(self.pipeline)
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
+
+    def recipe_form(self) -> dict:
+        """:meth:`to_dict` with the pipeline and ``mean_bound`` in the flat keys that spelled
+        them before the pipeline, where they have such a form
+        (:func:`wheelgym.agents.pipeline.legacy_form`): the form the results CSV's
+        ``config_sha`` digests, so that a recipe's digest does not depend on its spelling."""
+        data = self.to_dict()
+        flat = pipeline_mod.legacy_form(self.pipeline)
+        if flat is None:
+            return data
+        wg = data[WHEELGYM_BLOCK]
+        wg.pop("pipeline", None)
+        block = data[self.env_id]
+        pk = block.get("policy_kwargs")
+        if pk and "mean_bound" in pk:
+            wg["mean_bound"] = pk.pop("mean_bound")
+            if not pk:
+                del block["policy_kwargs"]
+        wg.update(flat)
+        return data
 
     def dump(self, path: str | Path) -> None:
         """Write the file form as YAML."""
@@ -770,6 +751,8 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
     if not isinstance(wg, Mapping):
         raise ValueError(f"{source}: block {WHEELGYM_BLOCK!r} must be a mapping")
 
+    if any(k in wg for k in pipeline_mod.LEGACY_KEYS):
+        raise ValueError(pipeline_mod.legacy_message(wg, f"{source}: {WHEELGYM_BLOCK}"))
     wg = _check_block(wg, _WHEELGYM_KEYS, f"{source}: {WHEELGYM_BLOCK}")
     if "algo" not in wg:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: missing key 'algo'; choose from {ALGOS}")
@@ -789,23 +772,12 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         raise ValueError(f"{source}: {env_id}: noise_type and noise_std go together")
     if "noise_type" in block and algo in ON_POLICY:
         raise ValueError(f"{source}: {env_id}: noise_type is for sac/td3, not {algo}")
-    if wg["mean_bound"] is not None and algo not in ON_POLICY:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound is for {list(ON_POLICY)} "
-                         f"(a Gaussian policy with a free mean), not {algo!r}")
-    if wg["mean_bound"] is not None and (block.get("policy", "MlpPolicy") != "MlpPolicy"
-                                         or block.get("use_sde")):
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: mean_bound needs policy MlpPolicy "
+    stages = () if wg["pipeline"] is None else pipeline_mod.parse_pipeline(
+        wg["pipeline"], f"{source}: {WHEELGYM_BLOCK}", algo, ON_POLICY)
+    if "mean_bound" in block.get("policy_kwargs", {}) and (
+            block.get("policy", "MlpPolicy") != "MlpPolicy" or block.get("use_sde")):
+        raise ValueError(f"{source}: {env_id}: policy_kwargs.mean_bound needs policy MlpPolicy "
                          f"without use_sde")
-
-    for keys in (CLONE_KEYS, DISTILL_KEYS):  # the first starts the fit, the others need it
-        first = keys[0]
-        if wg[first] is not None and algo not in ON_POLICY:
-            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {first} is for {list(ON_POLICY)} "
-                             f"(a Gaussian policy whose mean is fitted), not {algo!r}")
-        for key in keys[1:]:
-            if wg[key] is not None and wg[first] is None:
-                raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} needs {first} "
-                                 f"(the steps it works on)")
 
     normalize = block.pop("normalize", False)
     noise = None
@@ -831,15 +803,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         vec_env=wg["vec_env"],
         device=wg["device"],
         torch_threads=wg["torch_threads"],
-        reward_schedule=wg["reward_schedule"],
-        mean_bound=wg["mean_bound"],
-        clone_baseline=wg["clone_baseline"],
-        clone_rounds=wg["clone_rounds"],
-        clone_epochs=wg["clone_epochs"],
-        clone_internal_force=wg["clone_internal_force"],
-        distill_internal_force=wg["distill_internal_force"],
-        distill_rounds=wg["distill_rounds"],
-        distill_weight=wg["distill_weight"],
+        pipeline=stages,
         source=source,
     )
 
@@ -850,6 +814,21 @@ def load_config(path: str | Path, argument: str = "config") -> TrainConfig:
     (:func:`wheelgym.resources.config_path`; ``argument`` names it in the error)."""
     path = resources.config_path(path, argument)
     return parse_config(safe_load_config_yaml(path), source=str(path))
+
+
+def load_run_config(path: str | Path) -> TrainConfig:
+    """The ``config.yml`` of a run folder (or of a shipped agent): :func:`load_config`, but a
+    file written before the pipeline (the flat keys of
+    :data:`wheelgym.agents.pipeline.LEGACY_KEYS`) is read in the new spelling
+    (:func:`wheelgym.agents.pipeline.migrate`) instead of refused."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"config file {str(path)!r} not found"
+                         + (" (it is a folder)" if path.is_dir() else ""))
+    data = safe_load_config_yaml(path)
+    if isinstance(data, Mapping):
+        data = pipeline_mod.migrate(data)
+    return parse_config(data, source=str(path))
 
 
 def configs_dir() -> Path:

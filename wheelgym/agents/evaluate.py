@@ -44,7 +44,7 @@ import gymnasium as gym
 import numpy as np
 
 from wheelgym.agents.common import make_single_env
-from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
 
 __all__ = [
@@ -211,6 +211,84 @@ def _commanded_input(env: gym.Env, action: Any) -> np.ndarray:
     return a
 
 
+class _Tally:
+    """The running sums of one episode's step infos (:func:`run_episode`)."""
+
+    def __init__(self, env: gym.Env, ep: Episode, record: bool, info: dict) -> None:
+        self.env, self.ep, self.record = env, ep, record
+        self.motors = _has_motors(env)
+        self.poses: list = []
+        self.torques: list = []
+        self.inputs: list = []
+        self.refs: list = []
+        self.rewards: list = []
+        self.err2 = 0.0
+        self.n_err = 0
+        self.peak: float | None = None
+        self.f_sum = 0.0
+        self.n_force = 0
+        self.n_sat = 0
+        self.has_sat = False
+        if record:
+            ep.goal = _goal_of(info)
+            if "pose" in info:
+                self.poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
+
+    def step(self, action: Any, reward: float, info: dict) -> None:
+        ep, record = self.ep, self.record
+        ep.ret += float(reward)
+        ep.length += 1
+        if record:
+            self.rewards.append(float(reward))
+        if "tracking_error" in info:
+            e = _pos_error(info["tracking_error"])
+            self.err2 += e * e
+            self.n_err += 1
+        if self.motors and "motor_torque" in info:
+            tau = np.asarray(info["motor_torque"], dtype=np.float64).ravel()
+            if tau.size:
+                m = float(np.max(np.abs(tau)))
+                self.peak = m if self.peak is None else max(self.peak, m)
+                if record:
+                    self.torques.append(tau)
+        if record and not self.motors:
+            self.inputs.append(_commanded_input(self.env, action))
+        if "internal_force" in info and info["internal_force"] is not None:
+            self.f_sum += _norm(info["internal_force"])
+            self.n_force += 1
+        if "saturated" in info:
+            self.has_sat = True
+            self.n_sat += bool(np.any(info["saturated"]))
+        if "energy" in info:
+            ep.energy = float(info["energy"])
+        if record:
+            if "pose" in info:
+                self.poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
+            if ep.goal is None:
+                ref = _target_pose(self.env)
+                if ref is not None:
+                    self.refs.append(ref)
+        if info.get("numerical_failure", False):
+            ep.numerical_failure = True
+
+    def finish(self, info: dict) -> Episode:
+        ep = self.ep
+        if "is_success" in info:
+            ep.success = bool(info["is_success"])
+        ep.rms_tracking_error = math.sqrt(self.err2 / self.n_err) if self.n_err else None
+        ep.peak_torque = self.peak
+        ep.mean_internal_force = self.f_sum / self.n_force if self.n_force else None
+        ep.saturation = self.n_sat / ep.length if self.has_sat and ep.length else None
+        if self.record:
+            ep.poses = np.array(self.poses) if self.poses else None
+            ep.torques = np.array(self.torques) if self.torques else None
+            ep.inputs = np.array(self.inputs) if self.inputs else None
+            ep.rewards = np.array(self.rewards)
+            if self.refs and len({r.size for r in self.refs}) == 1:
+                ep.reference = np.array(self.refs)
+        return ep
+
+
 def run_episode(
     env: gym.Env,
     policy: Any,
@@ -230,21 +308,9 @@ def run_episode(
     obs, info = env.reset(seed=seed)
     _reset_policy(policy, seed)
     ep = Episode(seed=seed, dt=float(getattr(env.unwrapped, "dt", 1.0) or 1.0))
-    poses, torques, inputs, refs, rewards = [], [], [], [], []
-    motors = _has_motors(env)
-    if record:
-        ep.goal = _goal_of(info)
-        if "pose" in info:
-            poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
+    tally = _Tally(env, ep, record, info)
     if render:
         ep.frames.append(env.render())
-    err2 = 0.0
-    n_err = 0
-    peak = None
-    f_sum = 0.0
-    n_force = 0
-    n_sat = 0
-    has_sat = False
     state = None
     start = np.ones((1,), dtype=bool)
     while True:
@@ -252,59 +318,13 @@ def run_episode(
                                        deterministic=deterministic)
         start = np.zeros((1,), dtype=bool)
         obs, reward, terminated, truncated, info = env.step(action)
-        ep.ret += float(reward)
-        ep.length += 1
-        if record:
-            rewards.append(float(reward))
-        if "tracking_error" in info:
-            e = _pos_error(info["tracking_error"])
-            err2 += e * e
-            n_err += 1
-        if motors and "motor_torque" in info:
-            tau = np.asarray(info["motor_torque"], dtype=np.float64).ravel()
-            if tau.size:
-                m = float(np.max(np.abs(tau)))
-                peak = m if peak is None else max(peak, m)
-                if record:
-                    torques.append(tau)
-        if record and not motors:
-            inputs.append(_commanded_input(env, action))
-        if "internal_force" in info and info["internal_force"] is not None:
-            f_sum += _norm(info["internal_force"])
-            n_force += 1
-        if "saturated" in info:
-            has_sat = True
-            n_sat += bool(np.any(info["saturated"]))
-        if "energy" in info:
-            ep.energy = float(info["energy"])
-        if record:
-            if "pose" in info:
-                poses.append(np.asarray(info["pose"], dtype=np.float64).ravel()[:3])
-            if ep.goal is None:
-                ref = _target_pose(env)
-                if ref is not None:
-                    refs.append(ref)
+        tally.step(action, reward, info)
         if render:
             ep.frames.append(env.render())
-        if info.get("numerical_failure", False):
-            ep.numerical_failure = True
         if terminated or truncated:
             ep.terminated = bool(terminated)
             break
-    if "is_success" in info:
-        ep.success = bool(info["is_success"])
-    ep.rms_tracking_error = math.sqrt(err2 / n_err) if n_err else None
-    ep.peak_torque = peak
-    ep.mean_internal_force = f_sum / n_force if n_force else None
-    ep.saturation = n_sat / ep.length if has_sat and ep.length else None
-    if record:
-        ep.poses = np.array(poses) if poses else None
-        ep.torques = np.array(torques) if torques else None
-        ep.inputs = np.array(inputs) if inputs else None
-        ep.rewards = np.array(rewards)
-        if refs and len({r.size for r in refs}) == 1:
-            ep.reference = np.array(refs)
-    return ep
+    return tally.finish(info)
 
 
 def evaluate_policy_episodes(
@@ -660,7 +680,7 @@ def evaluate_run(
     run = Path(run)
     if not (run / "config.yml").is_file():
         raise ValueError(f"{run}: not a run folder (no config.yml)")
-    config = load_config(run / "config.yml")
+    config = load_run_config(run / "config.yml")
     stem = "model" if model == "final" else "best_model"
     stats = "vecnormalize.pkl" if model == "final" else "best_vecnormalize.pkl"
     if not (run / f"{stem}.zip").is_file():

@@ -12,7 +12,7 @@ model.zip            the best seed's final model (Stable-Baselines3 ``<Algo>.loa
                      (:func:`slim_model`: two thirds of an Adam-trained file, needed only to
                      train on)
 vecnormalize.pkl     its ``VecNormalize`` statistics (configs with ``normalize`` only)
-config.yml           the run's config as used (``load_config``): env id, env kwargs, algorithm
+config.yml           the run's config as used (``load_run_config``): env id, env kwargs, algorithm
 card.json            config name, algorithm, env id and kwargs, seed, training steps, the
                      benchmark row's scores (agent, baseline and random success, RMS error,
                      return, energy, internal force, saturation; train time), the CSV it came
@@ -47,9 +47,9 @@ from pathlib import Path
 from typing import Any
 
 from wheelgym import resources
-from wheelgym.agents.benchmark import parse_number, read_rows
-from wheelgym.agents.config import TrainConfig, load_config
+from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
+from wheelgym.agents.store import parse_number, read_rows
 
 __all__ = [
     "ROOT_ENV",
@@ -134,7 +134,7 @@ def load_pretrained(name: str, root: str | Path | None = None,
     ``ValueError`` listing the available names when there is no such agent.
     """
     folder = _folder(name, root)
-    config = load_config(folder / CONFIG)
+    config = load_run_config(folder / CONFIG)
     if config.normalize is not None and not (folder / STATS).is_file():
         raise ValueError(f"{folder}: the config normalises observations but {STATS} is missing")
     agent = load_agent(folder / MODEL, config.algo, folder / STATS, device=device)
@@ -246,7 +246,7 @@ def export_best(
         where = f"{name} seed {row['seed']} (run folder {str(run)!r})"
         if not row.get("run_dir") or not (run / CONFIG).is_file():
             raise ValueError(f"{where}: no {CONFIG}; is the run folder on this machine?")
-        config = load_config(run / CONFIG)
+        config = load_run_config(run / CONFIG)
         files = {MODEL: run / MODEL, CONFIG: run / CONFIG}
         if config.normalize is not None:
             files[STATS] = run / STATS
@@ -270,43 +270,52 @@ def export_best(
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     out: list[Path] = []
     for name, row, config, files in plans:
-        tmp = root / f".{name}.tmp-{os.getpid()}"
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir()
-        try:
-            for fname, src in files.items():
-                if fname == MODEL:
-                    (tmp / fname).write_bytes(models[name])
-                else:
-                    shutil.copyfile(src, tmp / fname)
-            card: dict[str, Any] = {
-                "config": name,
-                "algo": config.algo,
-                "env_id": config.env_id,
-                "env_kwargs": config.env_kwargs,
-                "normalize": config.normalize is not None,
-                "seed": int(float(row["seed"])),
-                "n_timesteps": int(float(row["n_timesteps"])),
-                "episodes": int(float(row.get("episodes") or 0)),
-                "scores": {c: parse_number(row.get(c)) for c in CARD_SCORES},
-                "csv": _shown(csv_path),
-                "run_dir": row.get("run_dir", ""),
-                "finished_utc": row.get("finished_utc", ""),
-                "exported_utc": now,
-                "files": {f: (tmp / f).stat().st_size for f in files},
-            }
-            (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
-            dest = root / name
-            if dest.exists():
-                old = root / f".{name}.old-{os.getpid()}"
-                os.replace(dest, old)
-                os.replace(tmp, dest)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, dest)
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
-        out.append(dest)
+        out.append(_write_agent(root, name, row, config, files, models[name], csv_path, now))
     return out
+
+
+def _write_agent(root: Path, name: str, row: dict[str, str], config: TrainConfig,
+                 files: dict[str, Path], model: bytes, csv_path: Path, now: str) -> Path:
+    """One agent's folder under ``root``, written aside and moved into place (an existing
+    one replaced); its ``config.yml`` in the current spelling."""
+    tmp = root / f".{name}.tmp-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        for fname, src in files.items():
+            if fname == MODEL:
+                (tmp / fname).write_bytes(model)
+            elif fname == CONFIG:
+                config.dump(tmp / fname)
+            else:
+                shutil.copyfile(src, tmp / fname)
+        card: dict[str, Any] = {
+            "config": name,
+            "algo": config.algo,
+            "env_id": config.env_id,
+            "env_kwargs": config.env_kwargs,
+            "normalize": config.normalize is not None,
+            "seed": int(float(row["seed"])),
+            "n_timesteps": int(float(row["n_timesteps"])),
+            "episodes": int(float(row.get("episodes") or 0)),
+            "scores": {c: parse_number(row.get(c)) for c in CARD_SCORES},
+            "csv": _shown(csv_path),
+            "run_dir": row.get("run_dir", ""),
+            "finished_utc": row.get("finished_utc", ""),
+            "exported_utc": now,
+            "files": {f: (tmp / f).stat().st_size for f in files},
+        }
+        (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
+        dest = root / name
+        if dest.exists():
+            old = root / f".{name}.old-{os.getpid()}"
+            os.replace(dest, old)
+            os.replace(tmp, dest)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, dest)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return dest

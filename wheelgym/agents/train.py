@@ -15,28 +15,33 @@ eval.csv               evaluation history: steps, wall time (continued across re
 best_model.zip         the model of the best evaluation (and ``best_vecnormalize.pkl``)
 checkpoints/           ``ckpt_<steps>_steps.zip`` and ``ckpt_vecnormalize_<steps>_steps.pkl``
 tb/                    TensorBoard logs
-run.json               ``status``, steps, wall time, versions; ``error`` when failed
-reward_weights.csv     with a ``reward_schedule``: each change of the reward weights (step,
-                       term, the weight the training envs then hold)
+run.json               ``status``, steps, wall time, versions, ``stages``; ``error`` when failed
+reward_weights.csv     with the rl stage's ``reward_schedule``: each change of the reward weights
+                       (step, term, the weight the training envs then hold)
 run.lock               present while a process trains in the folder (holds its pid)
 ====================== ======================================================================
 
-``status`` in run.json: ``cloning`` while ``clone_baseline`` demonstrates and fits;
-``running`` while training; ``distilling`` while ``distill_internal_force`` refits the trained
-policy (after the last step; its figures go to run.json's ``distill``); ``finished`` when the
-target number of steps was reached (and any distillation done); ``interrupted`` after Ctrl-C
+The run trains the config's pipeline (:mod:`wheelgym.agents.pipeline`; without one, a single
+``rl`` stage) in order on one model. run.json's ``stages`` records each stage: its kind (and
+teacher), ``status`` (``pending``, ``running``, ``finished``, ``interrupted``, ``stopped``,
+``failed``), the steps the model had after it, its wall time and, for an ``imitate`` stage, the
+fit's figures; ``stage`` is the index of the last stage started and ``recipe`` the recipe's
+short name (:attr:`wheelgym.agents.config.TrainConfig.recipe`).
+
+``status`` in run.json: ``cloning`` while an ``imitate`` stage with the baseline as teacher
+runs, ``distilling`` while one with the policy itself as teacher runs, ``running`` during the
+``rl`` stage; ``finished`` when every stage has run to its end; ``interrupted`` after Ctrl-C
 (SIGINT); ``stopped`` when the caller's ``on_eval`` hook ended training early (a pruned tuning
 trial); ``failed`` when training raised (``error`` holds the exception's type and message; the
 exception propagates). A process that died without a word (SIGKILL, power loss) leaves
 ``running`` (or ``cloning``, ``distilling``).
 
-Ctrl-C (SIGINT) stops at the next environment step and saves the model and statistics (a second
-Ctrl-C stops at once, still saving); during ``clone_baseline`` it ends the demonstration or fit
-at the next step or batch and saves the partly fitted model (``resume`` clones again); so during
-``distill_internal_force`` (``resume`` distils again). ``subproc``
+Ctrl-C (SIGINT) at any stage stops it at the next environment step (or fit batch) and saves the
+model and statistics as they are (a second Ctrl-C stops at once, still saving). ``subproc``
 vector-env workers ignore SIGINT (they share the terminal's process group), so the main process
-stops them cleanly. ``resume`` continues a run in
-its own folder from its last saved model or checkpoint.
+stops them cleanly. ``resume`` continues a run in its own folder from its last saved model or
+checkpoint, at the first stage not finished (an interrupted ``imitate`` stage runs again from
+the saved model; the ``rl`` stage continues to ``n_timesteps``), and runs every stage after it.
 
 Only one process at a time trains in a run folder: ``train`` and ``resume`` take ``run.lock``
 (created exclusively) and remove it on exit; a second process is refused with ``ValueError``. A
@@ -45,9 +50,7 @@ lock whose process no longer exists (a killed run) is stale and taken over.
 
 from __future__ import annotations
 
-import csv
 import json
-import math
 import os
 import platform
 import re
@@ -60,19 +63,16 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
 from wheelgym import resources
 from wheelgym.agents.common import (
     algo_class,
     build_model,
-    make_single_env,
     make_train_env,
     wrap_normalize,
 )
-from wheelgym.agents.config import TrainConfig, load_config, weights_at
-from wheelgym.agents.evaluate import applicable_metrics, evaluate_policy_episodes
-from wheelgym.agents.policies import AgentPolicy
+from wheelgym.agents.config import TrainConfig, load_config, load_run_config
+from wheelgym.agents.pipeline import RL, Imitate
 
 __all__ = [
     "train",
@@ -295,150 +295,6 @@ class _StopOnSignal:
             signal.signal(signal.SIGINT, self._previous)
 
 
-def _make_callbacks(config: TrainConfig, run_dir: Path, model, stop: _StopOnSignal,
-                    progress: bool, wall: Callable[[], float], on_eval: EvalHook | None = None):
-    """SB3 callbacks: stop on SIGINT, progress bar, checkpoints, evaluation history.
-
-    ``wall()`` is the run's training wall time so far (s), continued across resumes; it is the
-    ``wall_s`` column of eval.csv. ``on_eval`` sees each evaluation; ``False`` stops training.
-    """
-    from stable_baselines3.common.callbacks import (
-        BaseCallback,
-        CallbackList,
-        CheckpointCallback,
-        ProgressBarCallback,
-    )
-
-    n_envs = model.get_env().num_envs
-
-    class StopCallback(BaseCallback):
-        def _on_step(self) -> bool:
-            return not stop.requested
-
-    class EvalHistory(BaseCallback):
-        """Every ``eval_freq`` steps: deterministic episodes on fixed seeds -> eval.csv."""
-
-        def __init__(self) -> None:
-            super().__init__()
-            self.every = max(config.eval_freq // n_envs, 1)
-            self.path = run_dir / "eval.csv"
-            self.best = -math.inf
-            self.env: gym.Env | None = None
-            self.columns: list[str] = list(EVAL_COLUMNS)
-
-        def _on_training_start(self) -> None:
-            if not self.path.exists():
-                with self.path.open("w", newline="") as f:
-                    csv.writer(f).writerow(self.columns)
-            else:  # resumed: keep the best so far, and the file's own columns (older runs)
-                with self.path.open() as f:
-                    reader = csv.DictReader(f)
-                    rows = list(reader)
-                    self.columns = list(reader.fieldnames or self.columns)
-                if rows:
-                    self.best = max(float(r["mean_return"]) for r in rows)
-
-        def _on_step(self) -> bool:
-            if self.n_calls % self.every:
-                return True
-            if self.env is None:
-                self.env = make_single_env(config)
-                self.with_rms = "rms_tracking_error" in applicable_metrics(self.env)
-            if config.reward_schedule:  # returns scored with the weights training has now
-                self.env.unwrapped.set_reward_weights(
-                    weights_at(config.reward_schedule, self.num_timesteps))
-            norm = self.model.get_vec_normalize_env()
-            policy = AgentPolicy(self.model, norm)
-            seeds = [EVAL_HISTORY_SEED + i for i in range(config.eval_episodes)]
-            episodes = evaluate_policy_episodes(self.env, policy, seeds, record=False)
-            rets = np.array([e.ret for e in episodes])
-            succ = [e.success for e in episodes if e.success is not None]
-            rate = float(np.mean(succ)) if succ else None
-            errs = [e.rms_tracking_error for e in episodes if e.rms_tracking_error is not None]
-            rms = float(np.mean(errs)) if errs and self.with_rms else None
-            mean_len = float(np.mean([e.length for e in episodes]))
-            wall_s = wall()
-            cells = {
-                "timesteps": self.num_timesteps, "wall_s": f"{wall_s:.2f}",
-                "mean_return": f"{rets.mean():.6g}", "std_return": f"{rets.std():.6g}",
-                "success_rate": "" if rate is None else f"{rate:.4f}",
-                "mean_length": f"{mean_len:.1f}",
-                "rms_tracking_error": "" if rms is None else f"{rms:.6g}",
-            }
-            with self.path.open("a", newline="") as f:
-                csv.writer(f).writerow([cells.get(c, "") for c in self.columns])
-            self.logger.record("eval/mean_reward", float(rets.mean()))
-            if succ:
-                self.logger.record("eval/success_rate", rate)
-            if rets.mean() > self.best:
-                self.best = float(rets.mean())
-                self.model.save(run_dir / "best_model.zip")
-                if norm is not None:
-                    norm.save(str(run_dir / "best_vecnormalize.pkl"))
-            if on_eval is not None:
-                row = {"timesteps": int(self.num_timesteps), "wall_s": wall_s,
-                       "mean_return": float(rets.mean()), "std_return": float(rets.std()),
-                       "success_rate": rate, "mean_length": mean_len,
-                       "rms_tracking_error": rms}
-                if not on_eval(row):
-                    return False
-            return True
-
-        def _on_training_end(self) -> None:
-            if self.env is not None:
-                self.env.close()
-
-    class RewardSchedule(BaseCallback):
-        """Sets ``config.reward_schedule``'s weights on the training envs as steps pass its
-        points (also at the start, so a resumed run continues with its weights)."""
-
-        def __init__(self) -> None:
-            super().__init__()
-            self.now: dict[str, float] | None = None
-
-        def _apply(self) -> None:
-            w = weights_at(config.reward_schedule, self.num_timesteps)
-            if w != self.now:
-                self.training_env.env_method("set_reward_weights", w)
-                set_now = self.training_env.get_attr("reward_weights")[0]
-                path = run_dir / "reward_weights.csv"  # the record of each change
-                new = not path.exists()
-                with path.open("a", newline="") as f:
-                    out = csv.writer(f)
-                    if new:
-                        out.writerow(["timesteps", "term", "weight"])
-                    for k in sorted(w):
-                        out.writerow([self.num_timesteps, k, repr(set_now[k])])
-                self.now = w
-                for k, v in w.items():
-                    self.logger.record(f"reward_weights/{k}", v)
-
-        def _on_training_start(self) -> None:
-            self._apply()
-
-        def _on_step(self) -> bool:
-            self._apply()
-            return True
-
-    callbacks: list = [StopCallback()]
-    if config.reward_schedule:
-        callbacks.append(RewardSchedule())
-    if progress:
-        callbacks.append(ProgressBarCallback())
-    if config.checkpoint_freq > 0:
-        callbacks.append(
-            CheckpointCallback(
-                save_freq=max(config.checkpoint_freq // n_envs, 1),
-                save_path=str(run_dir / "checkpoints"),
-                name_prefix="ckpt",
-                save_vecnormalize=True,
-            )
-        )
-    if config.eval_freq > 0:
-        callbacks.append(EvalHistory())
-    return CallbackList(callbacks)
-
-
 # --------------------------------------------------------------------------------------------
 # train / resume
 # --------------------------------------------------------------------------------------------
@@ -459,50 +315,6 @@ def _save(model, run_dir: Path) -> None:
     norm = model.get_vec_normalize_env()
     if norm is not None:
         norm.save(str(run_dir / "vecnormalize.pkl"))
-
-
-def _learn(config: TrainConfig, model, run_dir: Path, total: int, progress: bool,
-           info: dict, reset_num_timesteps: bool,
-           on_eval: EvalHook | None = None) -> TrainResult:
-    """Train to ``total`` steps; save and record the status in run.json whatever happens."""
-    t0 = time.perf_counter()
-    wall_before = float(info.get("wall_s", 0.0))
-    remaining = max(total - model.num_timesteps, 0)
-    status = "failed"
-    error: BaseException | None = None
-    with _StopOnSignal() as stop:
-        try:
-            info.update(status="running", target_timesteps=total)
-            info.pop("error", None)
-            info.pop("notes", None)
-            _write_json(run_dir / "run.json", info)
-            callbacks = _make_callbacks(config, run_dir, model, stop, progress,
-                                        lambda: wall_before + time.perf_counter() - t0,
-                                        on_eval)
-            if remaining > 0:
-                model.learn(
-                    total_timesteps=remaining,
-                    callback=callbacks,
-                    reset_num_timesteps=reset_num_timesteps,
-                    tb_log_name="tb",
-                )
-            done = model.num_timesteps >= total
-            pending = done and _needs_distill(config, model, info)
-            if pending and not stop.requested:
-                _distill(config, model, run_dir, info, stop)
-                pending = bool(info["distill"].get("interrupted"))
-            status = ("interrupted" if pending else "finished" if done else
-                      "interrupted" if stop.requested else
-                      "stopped" if on_eval is not None else "finished")
-        except KeyboardInterrupt:
-            status = "interrupted"
-        except BaseException as e:
-            error = e
-            raise
-        finally:
-            _finish(model, run_dir, info, status,
-                    round(wall_before + time.perf_counter() - t0, 2), error)
-    return TrainResult(run_dir, status, int(model.num_timesteps), info["wall_s"])
 
 
 def _finish(model, run_dir: Path, info: dict, status: str, wall_s: float,
@@ -531,147 +343,160 @@ def _finish(model, run_dir: Path, info: dict, status: str, wall_s: float,
     _write_json(run_dir / "run.json", info)
 
 
-def train(
-    config: TrainConfig | str | Path,
-    *,
-    seed: int | None = None,
-    total_timesteps: int | None = None,
-    run_dir: str | Path | None = None,
-    runs_root: str | Path | None = None,
-    progress: bool = True,
-    verbose: int = 0,
-    on_eval: EvalHook | None = None,
-) -> TrainResult:
-    """Train from a config (or its path) into a new run folder.
 
-    ``seed`` and ``total_timesteps`` override the config (the saved ``config.yml`` holds the
-    values used). ``run_dir`` names the folder (it must not exist or be empty); otherwise one is
-    made under ``runs_root`` (default ``runs/``). ``on_eval`` (see :data:`EvalHook`) sees each
-    periodic evaluation and may stop training (status ``stopped``).
-    """
-    import torch
 
-    if not isinstance(config, TrainConfig):
-        config = load_config(config)
-    changes: dict[str, Any] = {}
-    if seed is not None:
-        changes["seed"] = seed
-    if total_timesteps is not None:
-        changes["n_timesteps"] = total_timesteps
-    if changes:
-        config = config.replace(**changes)
-    torch.set_num_threads(config.torch_threads)
+# --------------------------------------------------------------------------------------------
+# the pipeline's stages
+# --------------------------------------------------------------------------------------------
 
-    if run_dir is not None:
-        out, lock = _use_given_dir(Path(run_dir))
-    else:
-        out = new_run_dir(config, runs_root)
-        lock = RunLock(out).acquire()
+
+def _record(stage: Any) -> dict[str, Any]:
+    """A stage's entry in run.json's ``stages`` before it runs."""
+    rec: dict[str, Any] = {"stage": stage.kind}
+    if isinstance(stage, Imitate):
+        rec["teacher"] = stage.teacher
+    rec["status"] = "pending"
+    return rec
+
+
+def _records_of(info: dict, config: TrainConfig, run_dir: Path) -> list[dict[str, Any]]:
+    """run.json's stage records; for a run written before the pipeline (``clone`` and
+    ``distill`` entries instead) made from those."""
+    if "stages" in info:
+        recs = info["stages"]
+        kinds = [(r.get("stage"), r.get("teacher")) for r in recs]
+        want = [(r["stage"], r.get("teacher")) for r in map(_record, config.stages)]
+        if kinds != want:
+            raise ValueError(f"{run_dir}: run.json's stages {kinds} are not the config's "
+                             f"pipeline {want}")
+        return recs
+    recs = [_record(s) for s in config.stages]
+    for rec, stage in zip(recs, config.stages, strict=True):
+        if isinstance(stage, Imitate):
+            old = info.pop("clone" if stage.teacher == "baseline" else "distill", None)
+            if old is not None:
+                rec.update(old, status="interrupted" if old.get("interrupted") else "finished")
+    return recs
+
+
+def _first_pending(config: TrainConfig, model, records: list[dict[str, Any]]) -> int:
+    """The index of the first stage not finished (``rl``: fewer steps than ``n_timesteps``);
+    every stage from it on runs (again)."""
+    for i, (stage, rec) in enumerate(zip(config.stages, records, strict=True)):
+        if isinstance(stage, RL):
+            if model.num_timesteps < config.n_timesteps:
+                return i
+        elif rec.get("status") != "finished":
+            return i
+    return len(records)
+
+
+def _imitate(config: TrainConfig, stage: Imitate, model, stop: _StopOnSignal) -> dict:
+    """Run an ``imitate`` stage; its figures (``interrupted`` when a Ctrl-C ended it)."""
+    from wheelgym.agents.clone import clone_baseline, distill_internal_force
+
+    opts = stage.resolved()
     try:
-        try:
-            venv = wrap_normalize(make_train_env(config), config)
-            try:
-                check_reward_schedule(config, venv)
-                check_distill(config, venv)
-                model = build_model(config, venv, tensorboard_log=str(out / "tb"),
-                                    verbose=verbose)
-            except BaseException:
-                venv.close()
-                raise
-        except BaseException:
-            lock.release()
-            if not any(out.iterdir()):  # nothing written: leave no empty folder behind
-                out.rmdir()
-            raise
-        config.dump(out / "config.yml")
-        info = {
-            "config_source": config.source,
-            "env_id": config.env_id,
-            "env_kwargs": config.env_kwargs,
-            "algo": config.algo,
-            "seed": config.seed,
-            "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "versions": _versions(),
-            "wall_s": 0.0,
-        }
-        if config.clone_baseline is not None:  # the policy starts as the baseline's clone
-            interrupted = _clone(config, model, out, info)
-            if interrupted is not None:
-                return interrupted
-        return _learn(config, model, out, config.n_timesteps, progress, info, True, on_eval)
-    finally:
-        lock.release()
+        if stage.teacher == "baseline":
+            return clone_baseline(model, stage.steps, seed=config.seed,
+                                  stop=lambda: stop.requested, rounds=opts["rounds"],
+                                  epochs=opts["epochs"], internal_force=opts["internal_force"],
+                                  lr=opts["lr"])
+        return distill_internal_force(model, stage.steps, rounds=opts["rounds"],
+                                      weight=opts["internal_force"], epochs=opts["epochs"],
+                                      seed=config.seed, lr=opts["lr"],
+                                      stop=lambda: stop.requested)
+    except KeyboardInterrupt:  # a second Ctrl-C: stop at once (the caller saves)
+        return {"interrupted": True}
 
 
-def _clone(config: TrainConfig, model, run_dir: Path, info: dict) -> TrainResult | None:
-    """``clone_baseline`` before training: the fit's figures go to ``info["clone"]``.
+def _rl(config: TrainConfig, model, run_dir: Path, stop: _StopOnSignal, progress: bool,
+        wall: Callable[[], float], on_eval: EvalHook | None, reset: bool) -> str:
+    """Run the ``rl`` stage up to ``n_timesteps``; its status."""
+    from wheelgym.agents.callbacks import make_callbacks
 
-    A first Ctrl-C ends the demonstration or the fit early; the partly fitted model and its
-    statistics are then saved, run.json says ``interrupted`` (0 steps) and the result is
-    returned; :func:`resume` clones again before it trains. ``None`` when the clone finished.
-    """
-    from wheelgym.agents.clone import clone_baseline
+    total = config.n_timesteps
+    remaining = max(total - model.num_timesteps, 0)
+    callbacks = make_callbacks(config, run_dir, model, lambda: stop.requested, progress, wall,
+                               on_eval, EVAL_COLUMNS, EVAL_HISTORY_SEED)
+    if remaining > 0:
+        model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=reset,
+                    tb_log_name="tb")
+    if model.num_timesteps >= total:
+        return "finished"
+    return ("interrupted" if stop.requested else
+            "stopped" if on_eval is not None else "finished")
 
+
+def _run_stage(config: TrainConfig, i: int, model, run_dir: Path, info: dict,
+               stop: _StopOnSignal, progress: bool, wall: Callable[[], float],
+               on_eval: EvalHook | None, reset: bool) -> str:
+    """Run stage ``i``, recording it in run.json (``stages[i]``); its status."""
+    stage = config.stages[i]
+    rec = _record(stage)
+    rec["status"] = "running"
+    info["stages"][i] = rec
+    info.update(status=stage.status, stage=i)
+    _write_json(run_dir / "run.json", info)
+    t0 = time.perf_counter()
+    if isinstance(stage, RL):
+        status = _rl(config, model, run_dir, stop, progress, wall, on_eval, reset)
+    else:
+        fit = _imitate(config, stage, model, stop)
+        rec.update(fit)
+        status = "interrupted" if fit.get("interrupted") else "finished"
+    rec.update(status=status, timesteps=int(model.num_timesteps),
+               wall_s=round(time.perf_counter() - t0, 2))
+    return status
+
+
+def _run_pipeline(config: TrainConfig, model, run_dir: Path, info: dict, progress: bool,
+                  on_eval: EvalHook | None, reset: bool) -> TrainResult:
+    """Run the stages from the first unfinished one; save and record the status in run.json
+    whatever happens (Ctrl-C at any stage saves the model as it is)."""
     t0 = time.perf_counter()
     wall_before = float(info.get("wall_s", 0.0))
+
+    def wall() -> float:
+        return wall_before + time.perf_counter() - t0
+
+    status = "failed"
+    error: BaseException | None = None
+    info["target_timesteps"] = config.n_timesteps
+    info.pop("error", None)
+    info.pop("notes", None)
     with _StopOnSignal() as stop:
         try:
-            info.update(status="cloning")
-            _write_json(run_dir / "run.json", info)
-            fit = clone_baseline(model, config.clone_baseline, seed=config.seed,
-                                 stop=lambda: stop.requested,
-                                 rounds=config.clone_rounds or 1,
-                                 epochs=config.clone_epochs,
-                                 internal_force=config.clone_internal_force)
-        except KeyboardInterrupt:  # a second Ctrl-C: stop at once, still saving
-            fit = {"interrupted": True}
-        except BaseException as e:  # (the caller releases the lock)
-            model.get_env().close()
-            info.update(status="failed", error=_short(f"{type(e).__name__}: {e}"))
-            _write_json(run_dir / "run.json", info)
+            status = "finished"
+            for i in range(_first_pending(config, model, info["stages"]), len(config.stages)):
+                if stop.requested:
+                    status = "interrupted"
+                    break
+                status = _run_stage(config, i, model, run_dir, info, stop, progress, wall,
+                                    on_eval, reset)
+                if status != "finished":
+                    break
+        except KeyboardInterrupt:
+            status = "interrupted"
+        except BaseException as e:
+            status = "failed"
+            error = e
             raise
-    wall = round(wall_before + time.perf_counter() - t0, 2)
-    info["clone"] = {**fit, "wall_s": round(time.perf_counter() - t0, 2)}
-    info["wall_s"] = wall
-    if not fit.get("interrupted"):
-        return None
-    info["target_timesteps"] = config.n_timesteps
-    _finish(model, run_dir, info, "interrupted", wall)
-    return TrainResult(run_dir, "interrupted", int(model.num_timesteps), wall)
+        finally:
+            if status == "failed" or status == "interrupted":
+                for rec in info["stages"]:
+                    if rec.get("status") == "running":
+                        rec["status"] = status
+            _finish(model, run_dir, info, status, round(wall(), 2), error)
+    return TrainResult(run_dir, status, int(model.num_timesteps), info["wall_s"])
 
 
-def _needs_distill(config: TrainConfig, model, info: dict) -> bool:
-    """``distill_internal_force`` is set and has not run to its end at these steps."""
-    if config.distill_internal_force is None:
-        return False
-    last = info.get("distill")
-    return (last is None or bool(last.get("interrupted"))
-            or last.get("timesteps") != int(model.num_timesteps))
-
-
-def _distill(config: TrainConfig, model, run_dir: Path, info: dict, stop) -> None:
-    """``distill_internal_force`` after training: the figures go to ``info["distill"]``
-    (``interrupted`` when a Ctrl-C ended it early; :func:`resume` distils again)."""
-    from wheelgym.agents.clone import DISTILL_ROUNDS, DISTILL_WEIGHT, distill_internal_force
-
-    t0 = time.perf_counter()
-    info.update(status="distilling")
-    _write_json(run_dir / "run.json", info)
-    weight = DISTILL_WEIGHT if config.distill_weight is None else config.distill_weight
-    try:
-        fit = distill_internal_force(model, config.distill_internal_force,
-                                     rounds=config.distill_rounds or DISTILL_ROUNDS,
-                                     weight=weight, seed=config.seed,
-                                     stop=lambda: stop.requested)
-    except KeyboardInterrupt:  # a second Ctrl-C: stop at once (the caller saves)
-        fit = {"interrupted": True}
-    info["distill"] = {**fit, "timesteps": int(model.num_timesteps),
-                       "wall_s": round(time.perf_counter() - t0, 2)}
-
-
-def check_distill(config: TrainConfig, venv) -> None:
-    """``ValueError`` before training when ``distill_internal_force`` could not run after it."""
-    if config.distill_internal_force is not None:
+def check_stages(config: TrainConfig, venv) -> None:
+    """``ValueError`` before training when a stage could not run on ``venv``: a reward
+    schedule's term the env lacks, or a distillation on envs without an internal force."""
+    check_reward_schedule(config, venv)
+    if any(isinstance(s, Imitate) and s.teacher == "self_without_internal_force"
+           for s in config.stages):
         from wheelgym.agents.clone import check_distill_envs
 
         check_distill_envs(venv)
@@ -686,6 +511,93 @@ def check_reward_schedule(config: TrainConfig, venv) -> None:
     if bad:
         raise ValueError(f"{config.source}: reward_schedule terms {bad} unknown for "
                          f"{config.env_id} {config.env_kwargs}; valid terms: {names}")
+
+
+# --------------------------------------------------------------------------------------------
+# train / resume
+# --------------------------------------------------------------------------------------------
+
+
+def _prepare(config: TrainConfig, seed: int | None,
+             total_timesteps: int | None) -> TrainConfig:
+    """The config with the call's overrides, torch's threads set."""
+    import torch
+
+    if not isinstance(config, TrainConfig):
+        config = load_config(config)
+    changes: dict[str, Any] = {}
+    if seed is not None:
+        changes["seed"] = seed
+    if total_timesteps is not None:
+        changes["n_timesteps"] = total_timesteps
+    if changes:
+        config = config.replace(**changes)
+    torch.set_num_threads(config.torch_threads)
+    return config
+
+
+def _open_run(config: TrainConfig, run_dir: str | Path | None, runs_root: str | Path | None,
+              verbose: int) -> tuple[Path, RunLock, Any]:
+    """The locked run folder and the model on its training envs (no folder left behind when
+    building fails)."""
+    if run_dir is not None:
+        out, lock = _use_given_dir(Path(run_dir))
+    else:
+        out = new_run_dir(config, runs_root)
+        lock = RunLock(out).acquire()
+    try:
+        venv = wrap_normalize(make_train_env(config), config)
+        try:
+            check_stages(config, venv)
+            model = build_model(config, venv, tensorboard_log=str(out / "tb"), verbose=verbose)
+        except BaseException:
+            venv.close()
+            raise
+    except BaseException:
+        lock.release()
+        if not any(out.iterdir()):  # nothing written: leave no empty folder behind
+            out.rmdir()
+        raise
+    return out, lock, model
+
+
+def train(
+    config: TrainConfig | str | Path,
+    *,
+    seed: int | None = None,
+    total_timesteps: int | None = None,
+    run_dir: str | Path | None = None,
+    runs_root: str | Path | None = None,
+    progress: bool = True,
+    verbose: int = 0,
+    on_eval: EvalHook | None = None,
+) -> TrainResult:
+    """Train from a config (or its path) into a new run folder: its pipeline's stages in order.
+
+    ``seed`` and ``total_timesteps`` override the config (the saved ``config.yml`` holds the
+    values used). ``run_dir`` names the folder (it must not exist or be empty); otherwise one is
+    made under ``runs_root`` (default ``runs/``). ``on_eval`` (see :data:`EvalHook`) sees each
+    periodic evaluation and may stop training (status ``stopped``).
+    """
+    config = _prepare(config, seed, total_timesteps)
+    out, lock, model = _open_run(config, run_dir, runs_root, verbose)
+    try:
+        config.dump(out / "config.yml")
+        info = {
+            "config_source": config.source,
+            "env_id": config.env_id,
+            "env_kwargs": config.env_kwargs,
+            "algo": config.algo,
+            "seed": config.seed,
+            "recipe": config.recipe,
+            "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "versions": _versions(),
+            "wall_s": 0.0,
+            "stages": [_record(s) for s in config.stages],
+        }
+        return _run_pipeline(config, model, out, info, progress, on_eval, True)
+    finally:
+        lock.release()
 
 
 _CKPT = re.compile(r"ckpt_(\d+)_steps\.zip$")
@@ -717,49 +629,53 @@ def resume(
     progress: bool = True,
     verbose: int = 0,
 ) -> TrainResult:
-    """Continue a run in its own folder up to ``total_timesteps`` (default: the config's).
+    """Continue a run in its own folder: from its first unfinished stage (an interrupted
+    ``imitate`` stage again from the model as saved; ``rl`` up to ``total_timesteps``, default
+    the config's, and every stage after it again).
 
     Loads the newest of ``model.zip`` and the checkpoints, with its ``VecNormalize`` statistics;
-    evaluation history and TensorBoard logs continue.
+    evaluation history and TensorBoard logs continue. A run folder written before the pipeline
+    is read in the new spelling (:func:`wheelgym.agents.config.load_run_config`).
     """
     import torch
-    from stable_baselines3.common.vec_env import VecNormalize
 
     run_dir = Path(run)
     if not (run_dir / "config.yml").is_file():
         raise ValueError(f"{run_dir}: not a run folder (no config.yml)")
     with RunLock(run_dir):
-        config = load_config(run_dir / "config.yml")
+        config = load_run_config(run_dir / "config.yml")
         if total_timesteps is not None:
             config = config.replace(n_timesteps=total_timesteps)
         torch.set_num_threads(config.torch_threads)
-        model_path, stats_path = latest_model(run_dir)
-        # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
-        venv = make_train_env(config, seed=config.seed + 7919)
-        try:
-            check_reward_schedule(config, venv)
-            check_distill(config, venv)
-            if config.normalize is not None:
-                if stats_path is None:
-                    raise ValueError(
-                        f"{run_dir}: normalize is on but no VecNormalize statistics found")
-                venv = VecNormalize.load(str(stats_path), venv)
-                venv.training = True
-            model = algo_class(config.algo).load(
-                str(model_path), env=venv, device=config.device,
-                tensorboard_log=str(run_dir / "tb"), verbose=verbose,
-            )
-        except BaseException:
-            venv.close()
-            raise
-        if total_timesteps is not None:
-            config.dump(run_dir / "config.yml")
+        model_path, model = _load_for_resume(config, run_dir, verbose)
+        config.dump(run_dir / "config.yml")  # the new spelling, and any new total
         info_path = run_dir / "run.json"
         info = json.loads(info_path.read_text()) if info_path.is_file() else {}
+        info["stages"] = _records_of(info, config, run_dir)
         info.setdefault("resumed_from", []).append(str(model_path.name))
-        if config.clone_baseline is not None and info.get("clone", {}).get("interrupted"):
-            # Ctrl-C came during the clone: fit again (from the partial fit) before training
-            interrupted = _clone(config, model, run_dir, info)
-            if interrupted is not None:
-                return interrupted
-        return _learn(config, model, run_dir, config.n_timesteps, progress, info, False)
+        return _run_pipeline(config, model, run_dir, info, progress, None, False)
+
+
+def _load_for_resume(config: TrainConfig, run_dir: Path, verbose: int) -> tuple[Path, Any]:
+    """The newest saved model of the run on fresh training envs, with its statistics."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    model_path, stats_path = latest_model(run_dir)
+    # Fresh env seeds for the continuation: the same seeds would replay the first episodes.
+    venv = make_train_env(config, seed=config.seed + 7919)
+    try:
+        check_stages(config, venv)
+        if config.normalize is not None:
+            if stats_path is None:
+                raise ValueError(
+                    f"{run_dir}: normalize is on but no VecNormalize statistics found")
+            venv = VecNormalize.load(str(stats_path), venv)
+            venv.training = True
+        model = algo_class(config.algo).load(
+            str(model_path), env=venv, device=config.device,
+            tensorboard_log=str(run_dir / "tb"), verbose=verbose,
+        )
+    except BaseException:
+        venv.close()
+        raise
+    return model_path, model

@@ -29,8 +29,9 @@ At the end the best trial's hyperparameters are written as a config in the RL Zo
 (``<runs_root>/<study>/best.yml`` or ``out``): the config with the tuned keys, its own
 ``n_timesteps``, seed and evaluation settings, and a comment at the top naming the study, its
 trials and the date. :func:`export_best` writes it for an existing study at any time. Trials
-train without the config's ``distill_internal_force`` keys (a refit after the last step, which
-none of the evaluations a trial reports sees); the written config keeps them.
+train without the pipeline's ``imitate`` stages of teacher ``self_without_internal_force`` (a
+refit after the last step, which none of the evaluations a trial reports sees); the written
+config keeps them.
 
 Search spaces (:data:`SEARCH_SPACES`; ``log``: log-uniform, ``float``: uniform, ``cat``: one of):
 
@@ -77,8 +78,6 @@ import yaml
 
 from wheelgym.agents.common import make_single_env
 from wheelgym.agents.config import (
-    CLONE_KEYS,
-    DISTILL_KEYS,
     ON_POLICY,
     WHEELGYM_BLOCK,
     TrainConfig,
@@ -183,11 +182,22 @@ def _base_for_algo(config: TrainConfig, algo: str) -> dict:
         new["policy_kwargs"] = pk
     data[config.env_id] = new
     data[WHEELGYM_BLOCK]["algo"] = algo
-    if algo not in ON_POLICY:  # the bounded or cloned Gaussian mean: on-policy policies'
-        for key in ("mean_bound", *CLONE_KEYS, *DISTILL_KEYS):
-            data[WHEELGYM_BLOCK].pop(key, None)
+    if algo not in ON_POLICY:  # the fitted Gaussian mean: on-policy policies' only
+        _drop_imitate(data, ("baseline", "self_without_internal_force"))
     parse_config(data, source=config.source)  # a clear message if the switch is invalid
     return data
+
+
+def _drop_imitate(data: dict, teachers: tuple[str, ...]) -> None:
+    """Remove the ``imitate`` stages of ``teachers`` from the file form ``data`` (in place; a
+    pipeline left with only its ``rl`` stage of no keys goes)."""
+    wg = data[WHEELGYM_BLOCK]
+    stages = [s for s in wg.get("pipeline") or []
+              if not (s.get("stage") == "imitate" and s.get("teacher") in teachers)]
+    if stages == [{"stage": "rl"}] or not stages:
+        wg.pop("pipeline", None)
+    else:
+        wg["pipeline"] = stages
 
 
 def apply_params(base: dict, algo: str, params: dict[str, Any], timesteps: int) -> dict:
@@ -362,8 +372,8 @@ def _best_config_text(study) -> str:
     env_id = next(k for k in data if k != WHEELGYM_BLOCK)
     base_env = next(k for k in base if k != WHEELGYM_BLOCK)
     data[env_id]["n_timesteps"] = base[base_env]["n_timesteps"]
-    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq", *DISTILL_KEYS):
-        if key in base[WHEELGYM_BLOCK]:
+    for key in ("seed", "eval_freq", "eval_episodes", "checkpoint_freq", "pipeline"):
+        if key in base[WHEELGYM_BLOCK]:  # the pipeline with the stages trials leave out
             data[WHEELGYM_BLOCK][key] = base[WHEELGYM_BLOCK][key]
     config = parse_config(data, source=f"study {study.study_name}")
     metric = attrs.get("metric", "return")
@@ -462,6 +472,216 @@ def _make_pruner(name: str, timesteps: int):
     return optuna.pruners.NopPruner()
 
 
+def _check_tune_args(algo: str, metric: str, pruner: str, ints: dict[str, Any],
+                     timeout: float | None, max_saturation: float | None) -> None:
+    """``ValueError`` naming the first bad argument of :func:`tune` and its valid values."""
+    _check_choice("algo", algo, SEARCH_SPACES)
+    _check_choice("metric", metric, METRICS)
+    _check_choice("pruner", pruner, PRUNERS)
+    for name, value in ints.items():
+        if value is not None and (not isinstance(value, int) or value < 1):
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if timeout is not None and not (timeout > 0 and math.isfinite(timeout)):
+        raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
+    if max_saturation is not None and (isinstance(max_saturation, bool)
+                                       or not isinstance(max_saturation, (int, float))
+                                       or not 0.0 <= max_saturation <= 1.0):
+        raise ValueError(f"max_saturation must be a share in [0, 1], got {max_saturation!r}")
+
+
+def _check_metric_env(config: TrainConfig, metric: str) -> None:
+    """A bad env id or env_kwargs fails here, not in every trial; ``rms`` needs ``track``."""
+    env = make_single_env(config)
+    try:
+        if metric == "rms":
+            if "rms_tracking_error" not in applicable_metrics(env):
+                raise ValueError(f"metric 'rms' needs the track task; {config.source} has "
+                                 f"task {config.task!r} (use 'return' or 'success')")
+    finally:
+        env.close()
+
+
+@dataclass
+class _Study:
+    """An open study and where this worker's trials go."""
+
+    study: Any
+    url: str
+    n_before: int
+    worker: str
+    trials_dir: Path
+    study_dir: Path
+
+
+def _open_study(name: str, root: Path, storage: str | Path | None, heartbeat: int | None,
+                seed: int, direction: str, pruner: str, steps: int) -> _Study:
+    """Create or load the study (a new one's sampler seeded with ``seed``, a shared one's also
+    with the worker)."""
+    import optuna
+
+    study_dir = root / _slug(name)
+    if storage is None:
+        study_dir.mkdir(parents=True, exist_ok=True)
+    url = _storage_url(study_dir / "study.db" if storage is None else storage)
+    store = make_storage(url, heartbeat=heartbeat)
+    study_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        n_before = len(optuna.load_study(study_name=name, storage=store).trials)
+    except KeyError:
+        n_before = 0
+    worker = _slug(f"{socket.gethostname()}-{os.getpid()}")
+    sampler_seed = seed + n_before
+    trials_dir = study_dir
+    if storage is not None:  # a shared study: this worker's folder, its own draws
+        trials_dir = study_dir / worker
+        sampler_seed = (sampler_seed + zlib.crc32(worker.encode())) % 2**32
+    sampler = optuna.samplers.TPESampler(seed=sampler_seed)  # reads the trials' constraints
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(storage=store, study_name=name, direction=direction,
+                                sampler=sampler, pruner=_make_pruner(pruner, steps),
+                                load_if_exists=True)
+    return _Study(study, url, n_before, worker, trials_dir, study_dir)
+
+
+def _check_identity(st: _Study, name: str, identity: dict[str, Any], extra: dict[str, Any],
+                    direction: str, metric: str) -> None:
+    """Record a new study's settings; refuse a call whose settings differ from the study's."""
+    study = st.study
+    if "base_config" not in study.user_attrs:  # a new study: base_config is written last, so
+        # a worker that sees it sees the others (workers started together all write them)
+        for k, v in {**identity, **extra}.items():
+            if k != "base_config":
+                study.set_user_attr(k, v)
+        study.set_user_attr("base_config", identity["base_config"])
+    attrs = study.user_attrs
+    diff = sorted(k for k, v in identity.items() if attrs.get(k) != v)
+    if diff:
+        raise ValueError(
+            f"study {name!r} in {text_of(st.url)} was made with other {', '.join(diff)} "
+            f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, "
+            f"max_saturation {attrs.get('max_saturation')}, base "
+            f"{attrs.get('source')}); give another --study-name or the same settings")
+    if direction != study.direction.name.lower():
+        raise ValueError(f"study {name!r} is to {study.direction.name.lower()}, metric {metric!r} "
+                         f"to {direction}")
+
+
+@dataclass
+class _Trials:
+    """What each trial of a :func:`tune` call shares."""
+
+    config: TrainConfig
+    base: dict
+    algo: str
+    steps: int
+    seed: int
+    episodes: int
+    eval_freq: int
+    metric: str
+    column: str
+    max_saturation: float | None
+    st: _Study
+
+
+def _trial_config(t: _Trials, trial: Any) -> TrainConfig:
+    """The trial's config: the base with the trial's draw, its seed and evaluation settings."""
+    params = sample_params(trial, t.algo)
+    data = apply_params(t.base, t.algo, params, t.steps)
+    # the distillation runs after training, unseen by the evaluations the trial reports
+    _drop_imitate(data, ("self_without_internal_force",))
+    env_id = next(k for k in data if k != WHEELGYM_BLOCK)
+    data[env_id]["n_timesteps"] = t.steps
+    data[WHEELGYM_BLOCK].update(seed=t.seed + trial.number, eval_freq=t.eval_freq,
+                                eval_episodes=t.episodes, checkpoint_freq=0)
+    trial.set_user_attr("config", data)
+    trial.set_user_attr("seed", t.seed + trial.number)
+    trial.set_user_attr("worker", t.st.worker)
+    return parse_config(data, source=f"{t.config.source} (trial {trial.number})")
+
+
+def _objective(t: _Trials) -> Callable[[Any], float]:
+    """Optuna's objective: train the trial's config, report its evaluations to the pruner."""
+    import optuna
+
+    def objective(trial: optuna.Trial) -> float:
+        cfg = _trial_config(t, trial)
+        values: list[float] = []
+        pruned = False
+
+        def on_eval(row: dict) -> bool:
+            nonlocal pruned
+            value = row[t.column]
+            if value is None:
+                raise ValueError(f"the evaluation reports no {t.column} (metric {t.metric!r})")
+            values.append(float(value))
+            trial.report(float(value), int(row["timesteps"]))
+            if row["timesteps"] < t.steps and trial.should_prune():  # never the final one
+                pruned = True
+                return False
+            return True
+
+        try:
+            result = train(cfg, runs_root=t.st.trials_dir, progress=False, on_eval=on_eval)
+        except Exception as e:
+            trial.set_user_attr("error", f"{type(e).__name__}: {' '.join(str(e).split())[:300]}")
+            raise
+        trial.set_user_attr("run_dir", str(result.run_dir))
+        trial.set_user_attr("wall_s", result.wall_s)
+        if result.status == "interrupted":
+            raise KeyboardInterrupt
+        if pruned:
+            raise optuna.TrialPruned()
+        if not values:
+            raise ValueError("no evaluation happened (timesteps too small?)")
+        if t.max_saturation is not None:
+            sat = final_saturation(result.run_dir, cfg, t.episodes)
+            trial.set_user_attr("saturation", sat)
+            trial.set_constraint("saturation", sat - t.max_saturation)  # feasible: <= 0
+        return values[-1]
+
+    return objective
+
+
+def _trial_line(study: Any, t: Any, metric: str) -> str:
+    """The log line of a trial that ended."""
+    secs = t.user_attrs.get("wall_s")
+    took = f" in {secs:.0f} s" if secs is not None else ""
+    state = t.state.name.lower()
+    if state == "complete":
+        what = f"{metric} {t.value:.4g}"
+        if "saturation" in t.user_attrs:
+            what += f", saturation {100 * t.user_attrs['saturation']:.0f}%"
+    elif state == "pruned":
+        what = f"pruned at {t.last_step} steps"
+    else:
+        what = f"failed: {t.user_attrs.get('error', 'see the run folder')}"
+    try:
+        bt = study.best_trial
+        best = f"; best trial {bt.number}: {bt.value:.4g}"
+    except ValueError:  # none complete, or none feasible
+        best = ""
+    return f"trial {t.number} {what}{took}{best} ({t.user_attrs.get('run_dir', '-')})"
+
+
+def _optimize(st: _Study, t: _Trials, trials: int | None, timeout: float | None,
+              log: Callable[[str], None] | None) -> tuple[int, bool]:
+    """Run the trials; how many ran, and whether a Ctrl-C ended them."""
+    ran = 0
+
+    def report(study: Any, trial: Any) -> None:
+        nonlocal ran
+        ran += 1
+        if log is not None:
+            log(_trial_line(study, trial, t.metric))
+
+    try:
+        st.study.optimize(_objective(t), n_trials=trials, timeout=timeout, callbacks=[report],
+                          catch=(ValueError, RuntimeError, FloatingPointError))
+    except KeyboardInterrupt:
+        return ran, True
+    return ran, False
+
+
 def tune(
     config: TrainConfig | str | Path,
     *,
@@ -495,180 +715,54 @@ def tune(
     running trial (marked failed), still writes the best config so far and re-raises
     ``KeyboardInterrupt``.
     """
-    import optuna
-
     if not isinstance(config, TrainConfig):
         config = load_config(config)
     algo = config.algo if algo is None else algo
-    _check_choice("algo", algo, SEARCH_SPACES)
-    _check_choice("metric", metric, METRICS)
-    _check_choice("pruner", pruner, PRUNERS)
-    for name, value in (("trials", trials), ("timesteps", timesteps), ("n_evals", n_evals),
-                        ("eval_episodes", eval_episodes), ("heartbeat", heartbeat)):
-        if value is not None and (not isinstance(value, int) or value < 1):
-            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    if timeout is not None and not (timeout > 0 and math.isfinite(timeout)):
-        raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
-    if max_saturation is not None and (isinstance(max_saturation, bool)
-                                       or not isinstance(max_saturation, (int, float))
-                                       or not 0.0 <= max_saturation <= 1.0):
-        raise ValueError(f"max_saturation must be a share in [0, 1], got {max_saturation!r}")
+    _check_tune_args(algo, metric, pruner, {"trials": trials, "timesteps": timesteps,
+                                            "n_evals": n_evals, "eval_episodes": eval_episodes,
+                                            "heartbeat": heartbeat}, timeout, max_saturation)
     if trials is None and timeout is None:
         trials = 20
     steps = config.n_timesteps if timesteps is None else timesteps
     episodes = config.eval_episodes if eval_episodes is None else eval_episodes
     column, direction = METRICS[metric]
-
     base = _base_for_algo(config, algo)
     name = study_name or f"{config.name.rsplit('-', 1)[0]}-{algo}"
     root = Path(runs_root)
     if root.exists() and not root.is_dir():
         raise ValueError(f"runs root {str(root)!r} exists and is not a folder")
-    study_dir = root / _slug(name)
-    env = make_single_env(config)  # a bad env id or env_kwargs fails here, not in every trial
-    try:
-        if metric == "rms":
-            if "rms_tracking_error" not in applicable_metrics(env):
-                raise ValueError(f"metric 'rms' needs the track task; {config.source} has "
-                                 f"task {config.task!r} (use 'return' or 'success')")
-    finally:
-        env.close()
-    if storage is None:
-        study_dir.mkdir(parents=True, exist_ok=True)
-    url = _storage_url(study_dir / "study.db" if storage is None else storage)
-    store = make_storage(url, heartbeat=heartbeat)
-    study_dir.mkdir(parents=True, exist_ok=True)
-    try:
-        n_before = len(optuna.load_study(study_name=name, storage=store).trials)
-    except KeyError:
-        n_before = 0
-    worker = _slug(f"{socket.gethostname()}-{os.getpid()}")
-    sampler_seed = seed + n_before
-    trials_dir = study_dir
-    if storage is not None:  # a shared study: this worker's folder, its own draws
-        trials_dir = study_dir / worker
-        sampler_seed = (sampler_seed + zlib.crc32(worker.encode())) % 2**32
-    sampler = optuna.samplers.TPESampler(seed=sampler_seed)  # reads the trials' constraints
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(storage=store, study_name=name, direction=direction,
-                                sampler=sampler, pruner=_make_pruner(pruner, steps),
-                                load_if_exists=True)
+    _check_metric_env(config, metric)
+    st = _open_study(name, root, storage, heartbeat, seed, direction, pruner, steps)
     identity = {"base_config": base, "timesteps": steps, "metric": metric,
                 "eval_episodes": episodes, "n_evals": n_evals, "max_saturation": max_saturation}
-    if "base_config" not in study.user_attrs:  # a new study: base_config is written last, so
-        # a worker that sees it sees the others (workers started together all write them)
-        for k, v in {**identity, "seed": seed, "source": config.source, "algo": algo}.items():
-            if k != "base_config":
-                study.set_user_attr(k, v)
-        study.set_user_attr("base_config", base)
-    attrs = study.user_attrs
-    diff = sorted(k for k, v in identity.items() if attrs.get(k) != v)
-    if diff:
-        raise ValueError(
-            f"study {name!r} in {text_of(url)} was made with other {', '.join(diff)} "
-            f"(timesteps {attrs.get('timesteps')}, metric {attrs.get('metric')!r}, "
-            f"max_saturation {attrs.get('max_saturation')}, base "
-            f"{attrs.get('source')}); give another --study-name or the same settings")
-    if direction != study.direction.name.lower():
-        raise ValueError(f"study {name!r} is to {study.direction.name.lower()}, metric {metric!r} "
-                         f"to {direction}")
-    if enqueue_config and n_before == 0:
+    _check_identity(st, name, identity, {"seed": seed, "source": config.source, "algo": algo},
+                    direction, metric)
+    if enqueue_config and st.n_before == 0:
         params = _config_params(base, algo)
         if params:
-            study.enqueue_trial(params, skip_if_exists=True)
-
-    eval_freq = max(steps // n_evals, 1)
-
-    def objective(trial: optuna.Trial) -> float:
-        params = sample_params(trial, algo)
-        data = apply_params(base, algo, params, steps)
-        for key in DISTILL_KEYS:  # after training, unseen by the evaluations the trial reports
-            data[WHEELGYM_BLOCK].pop(key, None)
-        env_id = next(k for k in data if k != WHEELGYM_BLOCK)
-        data[env_id]["n_timesteps"] = steps
-        data[WHEELGYM_BLOCK].update(seed=seed + trial.number, eval_freq=eval_freq,
-                                    eval_episodes=episodes, checkpoint_freq=0)
-        trial.set_user_attr("config", data)
-        trial.set_user_attr("seed", seed + trial.number)
-        trial.set_user_attr("worker", worker)
-        cfg = parse_config(data, source=f"{config.source} (trial {trial.number})")
-        values: list[float] = []
-        pruned = False
-
-        def on_eval(row: dict) -> bool:
-            nonlocal pruned
-            value = row[column]
-            if value is None:
-                raise ValueError(f"the evaluation reports no {column} (metric {metric!r})")
-            values.append(float(value))
-            trial.report(float(value), int(row["timesteps"]))
-            if row["timesteps"] < steps and trial.should_prune():  # never the final one
-                pruned = True
-                return False
-            return True
-
-        try:
-            result = train(cfg, runs_root=trials_dir, progress=False, on_eval=on_eval)
-        except Exception as e:
-            trial.set_user_attr("error", f"{type(e).__name__}: {' '.join(str(e).split())[:300]}")
-            raise
-        trial.set_user_attr("run_dir", str(result.run_dir))
-        trial.set_user_attr("wall_s", result.wall_s)
-        if result.status == "interrupted":
-            raise KeyboardInterrupt
-        if pruned:
-            raise optuna.TrialPruned()
-        if not values:
-            raise ValueError("no evaluation happened (timesteps too small?)")
-        if max_saturation is not None:
-            sat = final_saturation(result.run_dir, cfg, episodes)
-            trial.set_user_attr("saturation", sat)
-            trial.set_constraint("saturation", sat - max_saturation)  # feasible: <= 0
-        return values[-1]
-
-    ran = 0
-
-    def report(study: optuna.Study, t: optuna.trial.FrozenTrial) -> None:
-        nonlocal ran
-        ran += 1
-        if log is None:
-            return
-        secs = t.user_attrs.get("wall_s")
-        took = f" in {secs:.0f} s" if secs is not None else ""
-        state = t.state.name.lower()
-        if state == "complete":
-            what = f"{metric} {t.value:.4g}"
-            if "saturation" in t.user_attrs:
-                what += f", saturation {100 * t.user_attrs['saturation']:.0f}%"
-        elif state == "pruned":
-            what = f"pruned at {t.last_step} steps"
-        else:
-            what = f"failed: {t.user_attrs.get('error', 'see the run folder')}"
-        try:
-            bt = study.best_trial
-            best = f"; best trial {bt.number}: {bt.value:.4g}"
-        except ValueError:  # none complete, or none feasible
-            best = ""
-        log(f"trial {t.number} {what}{took}{best} ({t.user_attrs.get('run_dir', '-')})")
-
+            st.study.enqueue_trial(params, skip_if_exists=True)
+    t = _Trials(config, base, algo, steps, seed, episodes, max(steps // n_evals, 1), metric,
+                column, max_saturation, st)
     if log is not None:
         budget = f"{trials} trial(s)" if trials is not None else "trials"
         limit = f" for up to {timeout:g} s" if timeout is not None else ""
-        log(f"study {name!r} ({text_of(url)}): {n_before} trial(s) so far; running {budget} of "
-            f"{steps} steps{limit}, {algo.upper()}, metric {metric}, pruner {pruner}; worker "
-            f"{worker}, runs in {trials_dir}")
+        log(f"study {name!r} ({text_of(st.url)}): {st.n_before} trial(s) so far; running "
+            f"{budget} of {steps} steps{limit}, {algo.upper()}, metric {metric}, pruner "
+            f"{pruner}; worker {st.worker}, runs in {st.trials_dir}")
     t0 = time.perf_counter()
-    interrupted = False
-    try:
-        study.optimize(objective, n_trials=trials, timeout=timeout, callbacks=[report],
-                       catch=(ValueError, RuntimeError, FloatingPointError))
-    except KeyboardInterrupt:
-        interrupted = True
+    ran, interrupted = _optimize(st, t, trials, timeout, log)
+    return _conclude(st, name, metric, out, ran, interrupted, time.perf_counter() - t0, log)
+
+
+def _conclude(st: _Study, name: str, metric: str, out: str | Path | None, ran: int,
+              interrupted: bool, wall_s: float, log: Callable[[str], None] | None) -> TuneResult:
+    """Write the best config (if any), log the study's counts, re-raise a Ctrl-C."""
+    study = st.study
     counts = _counts(study)
     path: Path | None = None
     best_value = best_number = None
     if _has_best(study):
-        path = _write_atomic(Path(out) if out is not None else study_dir / "best.yml",
+        path = _write_atomic(Path(out) if out is not None else st.study_dir / "best.yml",
                              _best_config_text(study))
         best_value, best_number = float(study.best_value), study.best_trial.number
     if log is not None:
@@ -678,5 +772,4 @@ def tune(
             f"{counts['pruned']} pruned, {counts['failed']} failed); {tail}")
     if interrupted:
         raise KeyboardInterrupt
-    return TuneResult(name, text_of(url), ran, counts, best_value, best_number, path,
-                      time.perf_counter() - t0)
+    return TuneResult(name, text_of(st.url), ran, counts, best_value, best_number, path, wall_s)

@@ -1,6 +1,6 @@
 """Clone the analytic baseline into a config's policy network, then let PPO fine-tune it.
 
-Usage: ``python benchmarks/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1] [--epochs 10]
+Usage: ``python research/navigate_clone.py CONFIG [--steps 1000000] [--rounds 1] [--epochs 10]
 [--internal-force W] [--finetune 1000000] [--learning-rate LR] [--episodes 50] [--out runs/clone]``.
 
 A diagnostic of the results that start from the baseline (README, results section; written

@@ -1,6 +1,6 @@
 """What ``distill_internal_force`` does to a trained ThreeWheel torque-mode agent.
 
-Usage: ``python benchmarks/distill_internal_force.py CONFIG MODEL [--stats PKL] [--steps 300000]
+Usage: ``python research/distill_internal_force.py CONFIG MODEL [--stats PKL] [--steps 300000]
 [--rounds 6] [--weight 1000] [--lr 1e-4] [--epochs 10] [--episodes 50] [--out DIR]``.
 
 ``MODEL`` is a trained agent's ``model.zip`` (or a checkpoint; its ``VecNormalize`` statistics
@@ -19,7 +19,7 @@ and one numba thread.
 The run of the shipped track agent's recipe, on the PPO checkpoint of a benchmark run before
 its distillation::
 
-    python benchmarks/distill_internal_force.py configs/ThreeWheel-track-torque.yml \\
+    python research/distill_internal_force.py configs/ThreeWheel-track-torque.yml \\
         runs/benchmark/ThreeWheel-track-torque-ppo-s1-*/checkpoints/ckpt_499968_steps.zip
 """
 

@@ -1,6 +1,6 @@
 """Where a trained PPO/A2C agent puts its Gaussian mean, and how its failed episodes end.
 
-Usage: ``python benchmarks/policy_probe.py RUN_DIR [--episodes 50] [--seed0 1000]``, RUN_DIR a
+Usage: ``python research/policy_probe.py RUN_DIR [--episodes 50] [--seed0 1000]``, RUN_DIR a
 run folder of ``wheelgym train`` or ``wheelgym benchmark`` (its ``config.yml``, ``model.zip``
 and ``vecnormalize.pkl``). Prints, over the episodes reset with seeds ``seed0 ..
 seed0 + episodes - 1`` and the deterministic policy:
@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
 
 from wheelgym.agents.common import make_single_env  # noqa: E402
-from wheelgym.agents.config import load_config  # noqa: E402
+from wheelgym.agents.config import load_run_config  # noqa: E402
 from wheelgym.agents.policies import load_agent  # noqa: E402
 from wheelgym.tasks.tasks import NavigateTask  # noqa: E402
 
@@ -36,7 +36,7 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=50)
     ap.add_argument("--seed0", type=int, default=1000)
     a = ap.parse_args()
-    config = load_config(a.run_dir / "config.yml")
+    config = load_run_config(a.run_dir / "config.yml")
     agent = load_agent(a.run_dir / "model.zip", config.algo, a.run_dir / "vecnormalize.pkl")
     policy = agent.model.policy
     env = make_single_env(config)

@@ -1,6 +1,6 @@
 """How much ``clone_internal_force`` takes the internal force out of a clone of the baseline.
 
-Usage: ``python benchmarks/clone_internal_force.py [CONFIG] [--steps 65536] [--held 8192]
+Usage: ``python research/clone_internal_force.py [CONFIG] [--steps 65536] [--held 8192]
 [--epochs 5] [--weights 0 10 30 100 300 1000]``.
 
 The analytic baseline labels ``--steps`` steps of the config's training envs (default
