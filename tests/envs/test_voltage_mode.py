@@ -109,11 +109,11 @@ def test_randomized_supply_voltage_scales_each_row():
 # ---------------------------------------------------------------------------- physics
 def test_no_load_speed_under_full_voltage():
     """No load (no friction, straight line): the joints settle where the back-EMF equals the
-    supply voltage, V_s / (k_e n) = 24 / (0.05 * 15) = 32 rad/s (2.4 m/s), drawing no
+    supply voltage, V_s / (k_e n) = 24 / (0.05 * 20) = 24 rad/s (1.8 m/s), drawing no
     current."""
     core = _core("CasterAGV", params=FREE)
     pel = _run(core, 1.0, 100)  # 5 s: the current limit, then ~30 time constants
-    w0 = 24.0 / (0.05 * 15.0)
+    w0 = 24.0 / (0.05 * 20.0)
     np.testing.assert_allclose(core.jv[0], [w0, w0], rtol=1e-10)
     np.testing.assert_allclose(core.model.no_load_speed(), [w0, w0], rtol=1e-15)
     assert core.twist[0, 0] == pytest.approx(w0 * 0.075, rel=1e-10)
@@ -132,7 +132,7 @@ def test_viscous_steady_state(a):
     b = 0.05
     core = _core("CasterAGV", params={**FREE, "b_drive": b})
     pel = _run(core, a, 100)
-    K, eta, R, V = 15 * 0.05, 0.85, 1.2, 24.0 * a
+    K, eta, R, V = 20 * 0.05, 0.85, 1.2, 24.0 * a
     w = eta * K * V / (eta * K * K + b * R)
     i = (V - K * w) / R
     np.testing.assert_allclose(core.jv[0], [w, w], rtol=1e-10)

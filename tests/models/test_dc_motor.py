@@ -93,7 +93,7 @@ def test_skidsteer_free_wheel_no_load_speed():
 
 def test_caster_free_wheel_no_load_speed():
     """CasterAGV frictionless (``frictionless()``), both motors full: v -> r V_s / (k_e n)
-    = 2.4 m/s (decay 2 eta K^2 / (R_w r^2) / m_eff, about 6 1/s: 10 s)."""
+    = 1.8 m/s (decay 2 eta K^2 / (R_w r^2) / m_eff, about 11 1/s: 10 s)."""
     m = CasterAGV(motor="dc").frictionless()
     p = m.params
     x = m.step(np.zeros(9), np.full(2, p.tau_max), 10.0, 5000)
@@ -104,7 +104,7 @@ def test_caster_free_wheel_no_load_speed():
 def test_three_wheel_load_line():
     """ThreeWheel driving straight (casters trailing) with only the viscous drive-joint
     friction b: each drive wheel settles where eta K (V_s - K omega) / R_w = b omega,
-    omega = eta K V_s / (R_w b + eta K^2) = 31.22 rad/s (below the 32 rad/s no-load speed)."""
+    omega = eta K V_s / (R_w b + eta K^2) = 23.67 rad/s (below the 24 rad/s no-load speed)."""
     m = ThreeWheel(motor="dc", mu_r=0.0, mu_p=0.0, b_steer=0.0)
     p = m.params
     K = p.gear_ratio_drive * p.k_t_drive
@@ -318,7 +318,7 @@ def test_envelope(cls):
     tol = 1e-12 * stall
     assert np.all(tau <= hi + tol) and np.all(tau >= lo - tol)
     inside = (U > lo) & (U < hi)
-    assert inside.mean() > 0.2 and (U > hi).mean() > 0.1 and (U < lo).mean() > 0.1
+    assert inside.mean() > 0.15 and (U > hi).mean() > 0.1 and (U < lo).mean() > 0.1
     np.testing.assert_allclose(tau[inside], U[inside], rtol=1e-14)
     np.testing.assert_allclose(tau[U >= hi], hi[U >= hi], rtol=1e-13)
     np.testing.assert_allclose(tau[U <= lo], lo[U <= lo], rtol=1e-13)

@@ -109,7 +109,7 @@ class CasterAGVParams(Params):
     | g           | 9.81          | m/s²      | gravity                                        |
     | tau_max     | 6.0           | N·m       | torque limit of each drive motor               |
     | motor       | "ideal"       | -         | "ideal", "dc" or "dc_voltage" (models/motor.py) |
-    | gear_ratio  | 15.0          | -         | drive gearbox ratio n (two equal motors)       |
+    | gear_ratio  | 20.0          | -         | drive gearbox ratio n (two equal motors)       |
     | gear_efficiency | 0.85      | -         | drive gearbox efficiency eta                   |
     | k_t         | 0.05          | N·m/A     | torque constant (= k_e, V·s/rad)               |
     | R_w         | 1.2           | ohm       | winding resistance                             |
@@ -117,8 +117,9 @@ class CasterAGVParams(Params):
     | I_max       | 10.0          | A         | current limit of each drive                    |
 
     DC motors (``motor="dc"``, :mod:`wheelgym.models.motor`; ThreeWheel's drive motor):
-    stall torque ``15 * 0.85 * 0.05 * min(20, 10) = 6.375 N·m`` (>= ``tau_max``), corner speed
-    16 rad/s (1.2 m/s), no-load joint speed ``V_s / (k_e n) = 32 rad/s`` (2.4 m/s). With
+    stall torque ``20 * 0.85 * 0.05 * min(20, 10) = 8.5 N·m`` (>= ``tau_max``), corner speed
+    12 rad/s (0.9 m/s), no-load joint speed ``V_s / (k_e n) = 24 rad/s`` (1.8 m/s, below the
+    env's 2.0 m/s overspeed limit: docs/topics/motors.md). With
     ``motor="ideal"`` these fields are unused.
 
     The caster axis must lie off the axle, farther from it than the trail (``|a_x| > d``), and
@@ -156,7 +157,7 @@ class CasterAGVParams(Params):
     g: float = 9.81
     tau_max: float = 6.0
     motor: str = "ideal"
-    gear_ratio: float = 15.0
+    gear_ratio: float = 20.0
     gear_efficiency: float = 0.85
     k_t: float = 0.05
     R_w: float = 1.2

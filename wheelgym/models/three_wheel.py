@@ -87,7 +87,7 @@ class ThreeWheelParams(Params):
     | tau_steer_max | 3.0     | N·m       | steering-motor torque limit                  |
     | motor         | "ideal" | -         | "ideal", "dc" or "dc_voltage" (models/motor.py) |
     | V_s           | 24.0    | V         | supply voltage of all six motors             |
-    | gear_ratio_drive | 15.0 | -         | drive gearbox ratio n                        |
+    | gear_ratio_drive | 20.0 | -         | drive gearbox ratio n                        |
     | gear_efficiency_drive | 0.85 | -    | drive gearbox efficiency eta                 |
     | k_t_drive     | 0.05    | N·m/A     | drive torque constant (= k_e, V·s/rad)       |
     | R_w_drive     | 1.2     | ohm       | drive winding resistance                     |
@@ -99,10 +99,11 @@ class ThreeWheelParams(Params):
     | I_max_steer   | 5.0     | A         | steering current limit                       |
 
     DC motors (``motor="dc"``, the law of :mod:`wheelgym.models.motor`): the drive motors'
-    stall torque is ``n eta k_t min(V_s / R_w, I_max) = 15 * 0.85 * 0.05 * min(20, 10) =
-    6.375 N·m`` (>= ``tau_drive_max``), falling linearly above the corner speed
-    ``(V_s - I_max R_w) / (k_e n) = 16 rad/s`` (1.2 m/s of wheel speed) to zero at the
-    no-load joint speed ``V_s / (k_e n) = 32 rad/s`` (2.4 m/s); the steering motors' stall
+    stall torque is ``n eta k_t min(V_s / R_w, I_max) = 20 * 0.85 * 0.05 * min(20, 10) =
+    8.5 N·m`` (>= ``tau_drive_max``), falling linearly above the corner speed
+    ``(V_s - I_max R_w) / (k_e n) = 12 rad/s`` (0.9 m/s of wheel speed) to zero at the
+    no-load joint speed ``V_s / (k_e n) = 24 rad/s`` (1.8 m/s, below the env's 2.0 m/s
+    overspeed limit: docs/topics/motors.md); the steering motors' stall
     torque is ``30 * 0.8 * 0.03 * min(12, 5) = 3.6 N·m`` (>= ``tau_steer_max``), corner
     15.6 rad/s, no-load 26.7 rad/s. With ``motor="ideal"`` these fields are unused.
     ``axes`` defaults to ``((-0.20, 0.20), (-0.20, -0.20), (0.25, 0.0))``: wheel 1
@@ -132,7 +133,7 @@ class ThreeWheelParams(Params):
     tau_steer_max: float = 3.0
     motor: str = "ideal"
     V_s: float = 24.0
-    gear_ratio_drive: float = 15.0
+    gear_ratio_drive: float = 20.0
     gear_efficiency_drive: float = 0.85
     k_t_drive: float = 0.05
     R_w_drive: float = 1.2
