@@ -10,6 +10,8 @@ more; Ctrl-C cancels the running tasks. Needs the ``cluster`` extra (``ray``).
 :class:`LocalPostgres` starts a PostgreSQL server on 127.0.0.1 in a fresh data folder (the
 binaries of the ``pgserver`` wheel, else Debian's ``postgresql``), with a random password, and
 stops it and removes the folder on exit: a study storage for tests and trials on one machine.
+:func:`rdb_storage` opens an Optuna database storage whose schema workers started together on a
+fresh PostgreSQL database create once (under an advisory lock) instead of racing to create it.
 """
 
 from __future__ import annotations
@@ -23,11 +25,13 @@ import socket
 import subprocess
 import tempfile
 import time
+import zlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["run_on_ray", "connect_ray", "LocalPostgres", "postgres_bin"]
+__all__ = ["run_on_ray", "connect_ray", "LocalPostgres", "postgres_bin", "rdb_storage",
+           "SCHEMA_LOCK_KEY"]
 
 #: Ray's switch that keeps a single-machine instance on the loopback interface.
 _RAY_LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
@@ -191,6 +195,44 @@ def postgres_bin() -> Path:
         return debian[-1].parent
     raise ValueError("no PostgreSQL binaries: pip install 'wheelgym[cluster]' (pgserver) or "
                      "apt-get install postgresql")
+
+
+#: Key of the PostgreSQL advisory lock (``pg_advisory_lock(bigint)``, per database) under which
+#: :func:`rdb_storage` creates a study storage's schema: the CRC-32 of "wheelgym optuna schema".
+SCHEMA_LOCK_KEY = zlib.crc32(b"wheelgym optuna schema")
+
+
+def rdb_storage(url: str, **kwargs: Any):
+    """``optuna.storages.RDBStorage(url, **kwargs)``, safe against workers started together.
+
+    Creating an ``RDBStorage`` creates the schema where it is missing (the tables, on
+    PostgreSQL also the enum types such as ``studydirection``, the version row and Alembic's
+    revision), each step checking first whether it exists. Two processes doing that at the same
+    moment on a fresh database both find it missing and one fails (``UniqueViolation ...
+    pg_type_typname_nsp_index``, ``CREATE TYPE studydirection``). On PostgreSQL the creation
+    therefore runs while this process holds a session advisory lock, :data:`SCHEMA_LOCK_KEY`,
+    on a connection of its own: the workers create the schema one after the other, and the
+    second finds it complete. The lock goes with the connection (released as well if the
+    process dies). Other databases (SQLite, MySQL) are opened as they are.
+    """
+    import optuna
+    import sqlalchemy
+
+    if sqlalchemy.engine.make_url(url).get_backend_name() != "postgresql":
+        return optuna.storages.RDBStorage(url, **kwargs)
+    engine = sqlalchemy.create_engine(url, poolclass=sqlalchemy.pool.NullPool,
+                                      **kwargs.get("engine_kwargs", {}))
+    try:
+        with engine.connect() as conn:
+            conn.execute(sqlalchemy.text("SELECT pg_advisory_lock(:key)"),
+                         {"key": SCHEMA_LOCK_KEY})
+            try:
+                return optuna.storages.RDBStorage(url, **kwargs)
+            finally:
+                conn.execute(sqlalchemy.text("SELECT pg_advisory_unlock(:key)"),
+                             {"key": SCHEMA_LOCK_KEY})
+    finally:
+        engine.dispose()
 
 
 def _free_port() -> int:

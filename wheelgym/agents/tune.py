@@ -307,10 +307,11 @@ def make_storage(storage: str | Path, heartbeat: int | None = None):
         kwargs["engine_kwargs"] = {"connect_args": {"timeout": 60}}  # waits, not "locked"
     beat, grace = (HEARTBEAT_S, GRACE_S) if heartbeat is None else (heartbeat, 4 * heartbeat)
     try:
+        from wheelgym.agents.cluster import rdb_storage  # schema made once by racing workers
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=beat,
-                                              grace_period=grace, **kwargs)
+            return rdb_storage(url, heartbeat_interval=beat, grace_period=grace, **kwargs)
     except Exception as e:  # SQLAlchemy's URL, driver and connection errors
         raise ValueError(f"--storage {text_of(url)!r}: {type(e).__name__}: "
                          f"{' '.join(str(e).split())[:300]}") from None
