@@ -259,7 +259,10 @@ heading (goal only) and success (``info["success_allowed"]``: no failure or coll
 recomputed; the goal-independent terms come summed in ``info["reward_goal_free"]`` (effort,
 internal_force, overspeed, collision; navigate: heading too, which compares with the env's goal
 yaw). With the observed (float32) goals it equals the step reward to their rounding (within
-1e-5 at the default weights; ``info["prev_achieved_goal"]`` is float64).
+1e-5 at the default weights; ``info["prev_achieved_goal"]`` is float64). These terms are not
+functions of the goals, so SB3's ``HerReplayBuffer`` needs
+``replay_buffer_kwargs=dict(..., copy_info_dict=True)``; without the info keys
+``compute_reward`` raises a ``ValueError`` saying so.
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
 (reward 0, see Episode End) are outside this.

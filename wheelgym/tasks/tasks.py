@@ -368,16 +368,33 @@ def _goal_arrays(achieved: Any, desired: Any, dim: int) -> tuple[np.ndarray, np.
     return a, g
 
 
+def _require_her_keys(info: Any) -> None:
+    if not isinstance(info, Mapping) or any(k not in info for k in HER_INFO_KEYS):
+        got = sorted(info) if isinstance(info, Mapping) else type(info).__name__
+        raise ValueError(
+            f"compute_reward needs the step info's {', '.join(HER_INFO_KEYS)} (progress and "
+            f"the goal-free terms are not functions of the goals; got {got}): with SB3's "
+            "HerReplayBuffer pass replay_buffer_kwargs=dict(..., copy_info_dict=True)")
+
+
 def her_info_arrays(info: HerInfo, batch: tuple[int, ...], dim: int
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``info``'s :data:`HER_INFO_KEYS` as arrays of leading shape ``batch``."""
+    """``info``'s :data:`HER_INFO_KEYS` as arrays of leading shape ``batch``.
+
+    The reward cannot be computed from the goals alone: its progress term needs the achieved
+    goal before the step and its effort, internal-force, overspeed and collision terms the
+    step's physics. An info without the keys (SB3's ``HerReplayBuffer`` passes empty dicts
+    unless ``copy_info_dict=True``) raises a ``ValueError`` saying what to set."""
     if isinstance(info, Mapping):
+        _require_her_keys(info)
         vals = [np.asarray(info[k]) for k in HER_INFO_KEYS]
     else:
         rows = list(np.asarray(info, dtype=object).reshape(-1))
         if len(rows) != int(np.prod(batch, dtype=np.int64)):
             raise ValueError(f"info must hold one dict per goal ({int(np.prod(batch))}), got "
                              f"{len(rows)}")
+        for r in rows:
+            _require_her_keys(r)
         vals = [np.array([r[k] for r in rows]) for k in HER_INFO_KEYS]
     try:
         prev = vals[0].astype(np.float64).reshape(*batch, dim)
