@@ -25,6 +25,8 @@ command                                 what it does
 ``wheelgym robustness TARGET``          perturbation sweep of a shipped agent or run: agent
                                         vs nominal- and true-model baseline vs random
 ``wheelgym configs [NAME]``             the shipped configs' names, or one config's YAML
+``wheelgym export SOURCE --onnx FILE``  a run's or shipped agent's deterministic policy,
+                                        normalisation included, as one ONNX graph
 ======================================= ==================================================
 
 A ``CONFIG`` argument is a config file, or the name of a shipped config
@@ -312,6 +314,20 @@ def _parser() -> argparse.ArgumentParser:
                    help="print this config's YAML instead of the list")
     for sp in (m, t, e, u, b, r, d, v, rb, c):
         _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
+
+    x = sub.add_parser("export", help="write a trained agent's deterministic policy (with its "
+                                      "observation normalisation) as one ONNX graph")
+    x.add_argument("source", metavar="CONFIG_OR_RUN",
+                   help="run folder (holds config.yml and model.zip), or a shipped agent's "
+                        "name or config path (see `wheelgym pretrained list`)")
+    x.add_argument("--onnx", type=Path, required=True, metavar="FILE",
+                   help="the .onnx file to write")
+    x.add_argument("--best", action="store_true", help="a run's best_model.zip, not model.zip")
+    x.add_argument("--check", type=_nonneg_int, default=1000, metavar="N",
+                   help="compare ONNX Runtime's actions with SB3's predict(deterministic=True) "
+                        "on N observations drawn from the observation space (default 1000; "
+                        "0: no check)")
+    _add_debug(x, argparse.SUPPRESS)
     return p
 
 
@@ -638,6 +654,31 @@ def _cmd_configs(a: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(a: argparse.Namespace) -> int:
+    try:
+        from wheelgym.agents.export import check_export, export_onnx, load_source
+    except ImportError as e:
+        raise ValueError(f"wheelgym export needs the train and onnx extras (pip install "
+                         f"'wheelgym[train,onnx]'): {e}") from None
+    from wheelgym.agents.export import sample_observations
+
+    _check_writable_file(a.onnx, "--onnx")
+    agent, config, label = load_source(a.source, best=a.best)
+    res = export_onnx(agent, a.onnx, config=config)
+    ins = ", ".join(f"{k} {dt} {list(shape)}" for k, (dt, shape) in res.inputs.items())
+    _print(f"{config.algo.upper()} agent {label} ({config.env_id}) -> {res.path} "
+           f"({res.path.stat().st_size / 1e3:.1f} kB; inputs {ins}; output action float32 "
+           f"[{res.action_dim}]; batch axis dynamic)")
+    if a.check:
+        err = check_export(res.path, agent, sample_observations(agent, a.check))
+        _print(f"ONNX Runtime vs SB3 predict(deterministic=True) on {a.check} observations: "
+               f"max |difference| {err:.3g}")
+        if not err <= 1e-5:
+            raise RuntimeError(f"the exported graph's actions differ from SB3's by {err:.3g} "
+                               "(more than 1e-5)")
+    return 0
+
+
 def _cmd_validate(a: argparse.Namespace) -> int:
     try:
         from wheelgym.validate import main as validate_main
@@ -657,6 +698,7 @@ _COMMANDS = {
     "demo": _cmd_demo,
     "validate": _cmd_validate,
     "configs": _cmd_configs,
+    "export": _cmd_export,
 }
 
 

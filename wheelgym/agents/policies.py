@@ -80,9 +80,15 @@ def load_vecnormalize(path: str | Path) -> Any | None:
 
 def load_agent(model_path: str | Path, algo: str, vecnorm_path: str | Path | None = None,
                device: str = "cpu") -> AgentPolicy:
-    """Load ``model.zip`` (and the statistics next to it) as an :class:`AgentPolicy`."""
+    """Load ``model.zip`` (and the statistics next to it) as an :class:`AgentPolicy`.
+
+    For acting only: an off-policy model gets SB3's default replay buffer in place of the one
+    it trained with (``HerReplayBuffer`` cannot be built without the env), so HER runs load
+    as the others do."""
+    custom = ({"replay_buffer_class": None, "replay_buffer_kwargs": {}}
+              if algo in ("sac", "td3") else None)
     try:
-        model = algo_class(algo).load(str(model_path), device=device)
+        model = algo_class(algo).load(str(model_path), device=device, custom_objects=custom)
     except Exception as e:
         raise ValueError(f"{model_path}: cannot load the {algo.upper()} model: "
                          f"{type(e).__name__}: {e}") from None
