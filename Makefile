@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml setup.py
 	$(PIP) install --quiet --upgrade pip
 	# The CPU build of torch first: an unpinned torch would pull a multi-GB CUDA build.
 	$(PIP) install --quiet "torch==2.13.0"
-	$(PIP) install --quiet -e ".[train,dev,cluster,clients]"
+	$(PIP) install --quiet -e ".[train,dev,cluster,clients,onnx]"
 	touch $(STAMP)
 
 run: $(STAMP)

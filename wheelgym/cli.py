@@ -656,13 +656,18 @@ def _cmd_configs(a: argparse.Namespace) -> int:
 
 def _cmd_export(a: argparse.Namespace) -> int:
     try:
-        from wheelgym.agents.export import check_export, export_onnx, load_source
+        from wheelgym.agents.export import (
+            check_export,
+            check_onnx_path,
+            export_onnx,
+            load_source,
+            sample_observations,
+        )
     except ImportError as e:
         raise ValueError(f"wheelgym export needs the train and onnx extras (pip install "
                          f"'wheelgym[train,onnx]'): {e}") from None
-    from wheelgym.agents.export import sample_observations
 
-    _check_writable_file(a.onnx, "--onnx")
+    check_onnx_path(a.onnx)
     agent, config, label = load_source(a.source, best=a.best)
     res = export_onnx(agent, a.onnx, config=config)
     ins = ", ".join(f"{k} {dt} {list(shape)}" for k, (dt, shape) in res.inputs.items())

@@ -40,8 +40,8 @@ import numpy as np
 from wheelgym.agents.config import TrainConfig, load_config
 from wheelgym.agents.policies import AgentPolicy, load_agent
 
-__all__ = ["ExportResult", "load_source", "policy_module", "export_onnx", "onnx_actions",
-           "sample_observations", "check_export", "DEFAULT_OPSET"]
+__all__ = ["ExportResult", "load_source", "check_onnx_path", "policy_module", "export_onnx",
+           "onnx_actions", "sample_observations", "check_export", "DEFAULT_OPSET"]
 
 #: The ONNX opset of the exported graph.
 DEFAULT_OPSET = 18
@@ -188,6 +188,18 @@ def _input_specs(agent: AgentPolicy) -> dict[str, tuple[np.dtype, tuple[int, ...
     return {k: (np.dtype(space[k].dtype), tuple(space[k].shape)) for k in keys}
 
 
+def check_onnx_path(path: str | Path) -> Path:
+    """``path`` as a ``Path`` if an ONNX file can be written there (``ValueError`` if not)."""
+    path = Path(path)
+    if path.suffix != ".onnx":
+        raise ValueError(f"--onnx {str(path)!r}: the file name must end in .onnx")
+    if path.is_dir():
+        raise ValueError(f"--onnx {str(path)!r} is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise ValueError(f"--onnx {str(path)!r}: folder {str(path.parent)!r} does not exist")
+    return path
+
+
 def export_onnx(source: str | Path | AgentPolicy, path: str | Path, *,
                 config: TrainConfig | None = None, best: bool = False,
                 root: str | Path | None = None, opset: int = DEFAULT_OPSET) -> ExportResult:
@@ -198,17 +210,13 @@ def export_onnx(source: str | Path | AgentPolicy, path: str | Path, *,
     onnx = _onnx_modules()
     import torch as th
 
+    path = check_onnx_path(path)
     if isinstance(source, AgentPolicy):
         if config is None:
             raise ValueError("export_onnx(agent, ...) needs the agent's config=")
         agent, label = source, source.name
     else:
         agent, config, label = load_source(source, best=best, root=root)
-    path = Path(path)
-    if path.suffix != ".onnx":
-        raise ValueError(f"--onnx {str(path)!r}: the file name must end in .onnx")
-    if not path.parent.is_dir():
-        raise ValueError(f"--onnx {str(path)!r}: folder {str(path.parent)!r} does not exist")
     module = policy_module(agent)
     specs = _input_specs(agent)
     dummy = tuple(th.zeros((2, *shape), dtype=getattr(th, dt.name)) for dt, shape in
