@@ -1,17 +1,18 @@
 """Time to the first step of a new user's first ``gym.make`` (numba's cache empty), and warm.
 
 Run: ``python benchmarks/coldstart.py [--quick] [--robots ...] [--tasks ...] [--rev REV]
-[--kernels] [--json FILE]``.
+[--kernels] [--json FILE]`` (``--rev worktree``: the working tree's files instead).
 
 For every robot x action mode x task (and ``motor="dc"`` and the voltage mode where the robot
 has DC motors) it extracts a fresh copy of the package at ``REV`` (``git archive REV wheelgym |
 tar -x``, default ``HEAD``: no numba cache), then runs ``gym.make(id, task=..., ...)``,
 ``reset`` and one ``step`` in a fresh Python process on that copy: the **cold** seconds (the
-process's wall time, interpreter start and imports included: what the user waits for). A
+process's wall time, interpreter start and imports included: what the user waits for; also
+its CPU seconds, which depend less on what else the machine runs). A
 second process on the same copy, whose cache the first one filled, gives the **warm** seconds.
 Each process also counts the numba dispatchers it compiled (numba's ``numba:compile``
 events; a load from the disk cache is no compile). Prints a Markdown table and the total;
-``--kernels`` adds each combination's slowest compiles (inclusive seconds), ``--json`` writes
+``--kernels`` adds each combination's slowest compiles (inclusive CPU seconds), ``--json`` writes
 the rows. ``--quick``: each robot's first action mode on the goal task only (smoke use).
 
 The other packages (numpy, numba, gymnasium...) are the running interpreter's; only
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -43,10 +45,10 @@ stack, done = [], []
 class Rec(ev.Listener):
     def on_start(self, e):
         d = e.data["dispatcher"]
-        stack.append((f"{d.py_func.__module__}.{d.py_func.__qualname__}", time.perf_counter()))
+        stack.append((f"{d.py_func.__module__}.{d.py_func.__qualname__}", time.process_time()))
     def on_end(self, e):
         name, t = stack.pop()
-        done.append((name, time.perf_counter() - t, len(stack)))
+        done.append((name, time.process_time() - t, len(stack)))
 ev.register("numba:compile", Rec())
 import gymnasium as gym
 import wheelgym
@@ -85,25 +87,39 @@ def _run_child(pkg: Path, kw: dict) -> dict:
     env = dict(os.environ)
     env.pop("NUMBA_CACHE_DIR", None)  # the cache next to the sources of the fresh copy
     env["PYTHONPATH"] = str(pkg)
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", CHILD, json.dumps(kw)], cwd=pkg, env=env,
                           capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         raise RuntimeError(f"{kw}: the child failed:\n{proc.stderr[-3000:]}")
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     res["wall_s"] = wall
+    res["cpu_s"] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     res["stderr"] = proc.stderr
     return res
 
 
-def measure(kw: dict, rev: str, keep: bool = False) -> dict:
-    """Cold and warm seconds of one combination on a fresh copy of ``rev``."""
+def fresh_copy(dest: Path, rev: str | None) -> None:
+    """The package without any numba cache into ``dest``: ``git archive rev wheelgym``, or
+    (``rev`` None) the working tree's ``wheelgym/`` without its ``__pycache__`` folders."""
+    if rev is None:
+        shutil.copytree(REPO / "wheelgym", dest / "wheelgym",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+        return
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "wheelgym"],
+                             capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+
+
+def measure(kw: dict, rev: str | None = "HEAD", keep: bool = False) -> dict:
+    """Cold and warm seconds of one combination on a fresh copy of ``rev`` (None: of the
+    working tree, :func:`fresh_copy`)."""
     tmp = Path(tempfile.mkdtemp(prefix="wheelgym-coldstart-"))
     try:
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", rev, "wheelgym"],
-                                 capture_output=True, check=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
+        fresh_copy(tmp, rev)
         cold = _run_child(tmp, dict(kw))
         warm = _run_child(tmp, dict(kw))
     finally:
@@ -112,6 +128,7 @@ def measure(kw: dict, rev: str, keep: bool = False) -> dict:
     return {
         **{k: v for k, v in kw.items()},
         "cold_s": cold["wall_s"], "warm_s": warm["wall_s"],
+        "cold_cpu_s": cold["cpu_s"], "warm_cpu_s": warm["cpu_s"],
         "compiled": len(cold["compiles"]), "warm_compiled": len(warm["compiles"]),
         "kernels": sorted(cold["compiles"], key=lambda c: -c[1]),
         "notice": [ln for ln in cold["stderr"].splitlines() if ln.startswith("wheelgym:")],
@@ -126,13 +143,15 @@ def _label(row: dict) -> str:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| robot | task | action mode | cold s | warm s | kernels compiled |",
-             "|---|---|---|---:|---:|---:|"]
+    lines = ["| robot | task | action mode | cold s | cold CPU s | warm s | kernels compiled |",
+             "|---|---|---|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r['id'].split('/')[1].rsplit('-', 1)[0]} | {r['task']} | "
-                     f"{_label(r)} | {r['cold_s']:.1f} | {r['warm_s']:.1f} | {r['compiled']} |")
+                     f"{_label(r)} | {r['cold_s']:.1f} | {r['cold_cpu_s']:.1f} | "
+                     f"{r['warm_s']:.1f} | {r['compiled']} |")
     total = sum(r["cold_s"] for r in rows)
     lines.append(f"| **total** ({len(rows)}) | | | **{total:.1f}** | "
+                 f"{sum(r['cold_cpu_s'] for r in rows):.1f} | "
                  f"{sum(r['warm_s'] for r in rows):.1f} | "
                  f"{sum(r['compiled'] for r in rows)} |")
     if rows:
@@ -148,7 +167,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="each robot's first action mode on the goal task only")
     ap.add_argument("--robots", nargs="*", default=None, help="default: every robot")
     ap.add_argument("--tasks", nargs="*", default=list(TASKS), choices=TASKS)
-    ap.add_argument("--rev", default="HEAD", help="git revision to copy (default HEAD)")
+    ap.add_argument("--rev", default="HEAD",
+                    help="git revision to copy (default HEAD); 'worktree': the working tree")
     ap.add_argument("--kernels", action="store_true", help="each combination's top compiles")
     ap.add_argument("--json", default=None, help="write the rows as JSON")
     args = ap.parse_args(argv)
@@ -161,13 +181,16 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--robots: unknown {bad}; valid: {available_robots()}")
     rows = []
     for kw in combinations(robots, tuple(args.tasks), args.quick):
-        row = measure(kw, args.rev)
+        row = measure(kw, None if args.rev == "worktree" else args.rev)
         rows.append(row)
         print(f"{row['id']} {row['task']} {_label(row)}: cold {row['cold_s']:.1f} s "
-              f"({row['compiled']} kernels), warm {row['warm_s']:.1f} s", flush=True)
+              f"({row['cold_cpu_s']:.1f} s CPU, {row['compiled']} kernels), "
+              f"warm {row['warm_s']:.1f} s", flush=True)
+        for line in row["notice"]:
+            print(f"    notice: {line}", flush=True)
         if args.kernels:
             for name, s, depth in row["kernels"][:8]:
-                print(f"    {'  ' * depth}{name} {s:.2f} s", flush=True)
+                print(f"    {'  ' * depth}{name} {s:.2f} s CPU", flush=True)
     print()
     print(table(rows))
     if args.json:
