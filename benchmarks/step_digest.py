@@ -34,7 +34,11 @@ def _feed(h, value) -> None:
             h.update(k.encode())
             _feed(h, value[k])
     else:
-        h.update(np.ascontiguousarray(np.asarray(value)).tobytes())
+        a = np.asarray(value)
+        if a.dtype.kind == "O":  # object arrays (the vector env's task names): their text,
+            h.update(repr(a.tolist()).encode())  # not the addresses of their objects
+        else:
+            h.update(np.ascontiguousarray(a).tobytes())
 
 
 def digest_single(robot: str, task: str, kw: dict, steps: int, seed: int = 0) -> str:
