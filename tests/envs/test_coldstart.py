@@ -41,6 +41,8 @@ def test_quick_coldstart_compiles_only_the_env_kernels():
     assert "wheelgym.envs.robots.kinematic.k_env_step" in names
     assert "wheelgym.tasks.kernels.k_goal" in names
     _assert_only_own(names, "kinematic")
+    assert row["notice"] == ["wheelgym: compiling the kinematic robots' kernels (first use only, "
+                             "~6 s)"]
     assert row["warm_compiled"] == 0  # the second process loads everything from the cache
     assert not row["warm_notice"]
     table = coldstart.table([row])

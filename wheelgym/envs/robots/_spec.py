@@ -127,8 +127,10 @@ class RobotSpec:
 
     def __post_init__(self) -> None:
         c = self.compile_s
+        # the kinematic robots share one step kernel (its notice names them all)
+        who = "the kinematic robots'" if self.kinematic else f"the {self.name}"
         for key, what, kernels in (
-                ("step", f"the {self.name} kernels", (self.k_env_step,)),
+                ("step", f"{who} kernels", (self.k_env_step,)),
                 ("dc", f"the {self.name} DC-motor kernels", (self.k_env_step_dc,)),
                 ("blocks", f"the {self.name} vector-env kernels",
                  (self.k_env_blocks, self.k_env_blocks_dc, self.k_env_step_par,

@@ -166,5 +166,5 @@ SPEC = RobotSpec(
     wheels=_wheels,
     motor_names=("rear_left", "front_left", "front_right", "rear_right"),
     baseline_controllers=True,
-    compile_s={"step": 10.0, "dc": 10.0, "blocks": 40.0},  # benchmarks/coldstart.py
+    compile_s={"step": 15.0, "dc": 15.0, "blocks": 40.0},  # benchmarks/coldstart.py
 )

@@ -201,5 +201,5 @@ SPEC = RobotSpec(
     baseline_controllers=True,
     n_steer_motor=3,
     stiffness_probe=_STIFFNESS_PROBE,
-    compile_s={"step": 30.0, "dc": 30.0, "blocks": 120.0},  # benchmarks/coldstart.py
+    compile_s={"step": 45.0, "dc": 45.0, "blocks": 150.0},  # benchmarks/coldstart.py
 )
