@@ -1,6 +1,7 @@
 """Time to the first step of a new user's first ``gym.make`` (numba's cache empty), and warm.
 
-Run: ``python benchmarks/coldstart.py [--quick] [--robots ...] [--tasks ...] [--rev REV]
+Run: ``python benchmarks/coldstart.py [--quick] [--robots ...] [--tasks ...] [--modes ...]
+[--motor all|ideal|dc] [--rev REV]
 [--kernels] [--json FILE]`` (``--rev worktree``: the working tree's files instead).
 
 For every robot x action mode x task (and ``motor="dc"`` and the voltage mode where the robot
@@ -60,8 +61,11 @@ print(json.dumps({"inside_s": time.perf_counter() - t0, "compiles": done}))
 """
 
 
-def combinations(robots: list[str], tasks: tuple[str, ...], quick: bool) -> list[dict]:
-    """The ``gym.make`` keywords of every combination (``quick``: first mode, goal only)."""
+def combinations(robots: list[str], tasks: tuple[str, ...], quick: bool,
+                 motor: str = "all", modes: tuple[str, ...] = ()) -> list[dict]:
+    """The ``gym.make`` keywords of every combination (``quick``: first mode, goal only;
+    ``motor``: ``"ideal"`` or ``"dc"`` (the voltage mode included) for one motor model only;
+    ``modes``: only these action modes)."""
     sys.path.insert(0, str(REPO))
     from wheelgym.envs.robots import get_spec
     from wheelgym.registration import env_id
@@ -73,6 +77,12 @@ def combinations(robots: list[str], tasks: tuple[str, ...], quick: bool) -> list
         if spec.has_dc_motors:
             kws += [{"action_mode": m, "motor": "dc"} for m in spec.action_modes]
             kws += [{"action_mode": m} for m in spec.dc_action_modes]
+        if motor != "all":
+            kws = [kw for kw in kws if (kw.get("motor") == "dc"
+                                        or kw["action_mode"] in spec.dc_action_modes)
+                   == (motor == "dc")]
+        if modes:
+            kws = [kw for kw in kws if kw["action_mode"] in modes]
         if quick:
             kws, tasks_r = kws[:1], ("goal",)
         else:
@@ -167,6 +177,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="each robot's first action mode on the goal task only")
     ap.add_argument("--robots", nargs="*", default=None, help="default: every robot")
     ap.add_argument("--tasks", nargs="*", default=list(TASKS), choices=TASKS)
+    ap.add_argument("--motor", default="all", choices=("all", "ideal", "dc"),
+                    help="one motor model only (dc: motor='dc' and the voltage mode)")
+    ap.add_argument("--modes", nargs="*", default=[], help="only these action modes")
     ap.add_argument("--rev", default="HEAD",
                     help="git revision to copy (default HEAD); 'worktree': the working tree")
     ap.add_argument("--kernels", action="store_true", help="each combination's top compiles")
@@ -180,7 +193,8 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         ap.error(f"--robots: unknown {bad}; valid: {available_robots()}")
     rows = []
-    for kw in combinations(robots, tuple(args.tasks), args.quick):
+    for kw in combinations(robots, tuple(args.tasks), args.quick, args.motor,
+                           tuple(args.modes)):
         row = measure(kw, None if args.rev == "worktree" else args.rev)
         rows.append(row)
         print(f"{row['id']} {row['task']} {_label(row)}: cold {row['cold_s']:.1f} s "
