@@ -1,6 +1,6 @@
 """Seeded rollout digests: whether a change to the kernels changed any bit of an env's output.
 
-Run: ``python benchmarks/rollout_digest.py [--steps 300] [--robots ...] [--dc] [--out FILE]``.
+Run: ``python benchmarks/step_digest.py [--steps 300] [--robots ...] [--dc] [--out FILE]``.
 For every robot x action mode x task (``--dc``: also ``motor="dc"`` and the voltage mode
 where the robot has DC motors) it steps the single env (``gym.make``) and a vector env of 20
 rows (the vectorised block kernels of ThreeWheel and SkidSteer: 16 rows and more) with
