@@ -1,12 +1,13 @@
 """Steps per second of ``env.step`` for every wheelgym id and task vs Gymnasium's Pendulum-v1.
 
 Run: ``python benchmarks/envs.py [--steps 3000] [--repeats 5] [--robots ...] [--motor-only]
-[--maps-only]``. Prints a Markdown table of the median time per step (us) and the ratio of
-steps/s to Pendulum-v1 measured in the same run (higher is faster), the cost of the DC motor
-model (``motor="dc"`` vs ``"ideal"``, goal task, torque mode, timed alternately in the same
-run; ``--motor-only``: that table alone), the cost of map-based ``navigate`` (each shipped map
-vs the random arena, timed alternately; ``--maps-only``: that table alone), plus ``gym.make``
-time once the compiled caches exist.
+[--maps-only] [--breakdown]``. Prints a Markdown table of the median time per step (us) and
+the ratio of steps/s to Pendulum-v1 measured in the same run (higher is faster), the cost of
+the DC motor model (``motor="dc"`` vs ``"ideal"``, goal task, torque mode, timed alternately in
+the same run; ``--motor-only``: that table alone), the cost of map-based ``navigate`` (each
+shipped map vs the random arena, timed alternately; ``--maps-only``: that table alone), plus
+``gym.make`` time once the compiled caches exist. ``--breakdown``: only where a single env's
+step goes (the compiled physics, the core, the wrappers and info), against Pendulum-v1.
 Actions are sampled before timing; episodes that end are reset outside the timed region's
 count.
 """
@@ -133,6 +134,50 @@ def bench_maps(robots: list[str], steps: int, repeats: int) -> None:
         rand.close()
 
 
+def bench_breakdown(robots: list[str], steps: int, repeats: int) -> None:
+    """Where a single env's step goes (goal task, every action mode): ``env.step`` through
+    ``gym.make``, the core's step (physics, controller, task kernel), the compiled physics
+    kernel alone, and Pendulum-v1's step, each the median of ``repeats`` runs of ``steps``
+    calls, interleaved round by round."""
+    print("| robot, action mode | env.step us | physics kernel us | WheelCore.step us | "
+          "wrappers, checks, info us | Pendulum-v1 us | ratio |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    pend = gym.make("Pendulum-v1")
+    pend.reset(seed=0)
+    pa = np.zeros(1, dtype=np.float32)
+    for robot in robots:
+        for mode in wheelgym.envs.robots.get_spec(robot).action_modes:
+            env = gym.make(env_id(robot), task="goal", action_mode=mode)
+            env.reset(seed=0)
+            core = env.unwrapped.core
+            a = np.zeros(env.action_space.shape, dtype=np.float32)
+            A = np.zeros((1, core.action_dim))
+
+            def step(env=env, a=a):
+                _, _, te, tr, _ = env.step(a)
+                if te or tr:
+                    env.reset()
+
+            def kernel(core=core, A=A):
+                core._k_step(core.X, A, core.LH, core.P, core.h, core.n_sub, core.Xo, core.B,
+                             core.F)
+
+            fns = {"env": step, "kernel": kernel, "core": lambda core=core, A=A: core.step(A),
+                   "pend": lambda: pend.step(pa)}
+            times: dict[str, list[float]] = {k: [] for k in fns}
+            for r in range(repeats + 1):
+                for k, f in fns.items():
+                    t0 = time.perf_counter()
+                    for _ in range(steps):
+                        f()
+                    if r:  # the first round warms up
+                        times[k].append((time.perf_counter() - t0) / steps * 1e6)
+            m = {k: statistics.median(v) for k, v in times.items()}
+            print(f"| {robot}, {mode} | {m['env']:.1f} | {m['kernel']:.1f} | {m['core']:.1f} | "
+                  f"{m['env'] - m['core']:.1f} | {m['pend']:.1f} | {m['pend'] / m['env']:.2f}x |")
+            env.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=3000)
@@ -142,7 +187,12 @@ def main() -> None:
                     help="only the motor='dc' vs 'ideal' table")
     ap.add_argument("--maps-only", action="store_true",
                     help="only the map-based navigate vs random arena table")
+    ap.add_argument("--breakdown", action="store_true",
+                    help="only the table of where a single env's step goes")
     args = ap.parse_args()
+    if args.breakdown:
+        bench_breakdown(args.robots or available_robots(), args.steps, args.repeats)
+        return
     if args.motor_only:
         bench_motor(args.robots or available_robots(), args.steps, args.repeats)
         return

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from wheelgym.integrators import check_substeps, n_substeps, rk4
 from wheelgym.models import SkidSteer
@@ -98,3 +99,37 @@ def test_check_substeps():
             check_substeps(bad)
     with pytest.raises(ValueError):
         rk4(_decay, np.ones(1), 0.0, 1.0, 0)
+
+
+@njit(cache=True)
+def _decay_one(x, u, p, out):  # pragma: no cover - compiled
+    out[0] = u[0] - p[0] * x[0]
+
+
+def test_single_state_kernels_compile_on_first_call_only():
+    """model_kernels builds step1/deriv1 without compiling; first_call compiles their one
+    signature (or loads it) and refuses other argument types (None: the general path)."""
+    from wheelgym.integrators import first_call, model_kernels
+
+    k = model_kernels(__name__, __file__, _decay_one, 1, 1, suffix="_first_call")
+    assert not k.step1.signatures and not k.deriv1.signatures
+    x, u, p = np.array([1.0]), np.array([0.5]), np.array([2.0])
+    with pytest.raises(TypeError):
+        k.step1(x.copy(), u, p, 0.1, 2)
+    out = x.copy()
+    assert first_call(k.step1, out, u, p, 0.1, 2) == 0
+    assert len(k.step1.signatures) == 1
+    h = 0.05
+    ref = np.array([1.0])
+    for _ in range(2):  # RK4 of x' = 0.5 - 2 x by hand
+        f = lambda y: 0.5 - 2.0 * y  # noqa: E731
+        k1 = f(ref)
+        k2 = f(ref + 0.5 * h * k1)
+        k3 = f(ref + 0.5 * h * k2)
+        k4 = f(ref + h * k3)
+        ref = ref + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    np.testing.assert_allclose(out, ref, rtol=1e-14)
+    assert first_call(k.step1, x.astype(np.float32), u, p, 0.1, 2) is None  # compiled: no
+    with pytest.raises(TypeError):  # other types never compile a second signature
+        k.step1(x.astype(np.float32), u, p, 0.1, 2)
+    assert len(k.step1.signatures) == 1

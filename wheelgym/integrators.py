@@ -14,9 +14,11 @@ Two entry points share one algorithm, the classic four-stage Runge-Kutta method
 * :func:`rk4` is the same scheme for any Python callable ``f(x, u) -> xdot`` on arrays; the
   tests and validation use it for augmented systems (energy integrals, reference formulations).
 
-Single-state kernels (the fast path of :meth:`wheelgym.models.Model.step`) are compiled eagerly
-for the signatures :data:`STEP1_SIG` / :data:`DERIV1_SIG` and report problems through the
-``STATUS_*`` codes below (checked inside the kernel, so a valid call costs no Python-side scan).
+Single-state kernels (the fast path of :meth:`wheelgym.models.Model.step`) have the one
+signature :data:`STEP1_SIG` / :data:`DERIV1_SIG` each (any other argument types raise
+``TypeError``), compiled on their first call (:func:`first_call`), and report problems through
+the ``STATUS_*`` codes below (checked inside the kernel, so a valid call costs no Python-side
+scan).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ __all__ = [
     "DERIV1_SIG",
     "ModelKernels",
     "model_kernels",
+    "first_call",
 ]
 
 #: ``_k_step1(x, u, p, dt, n) -> status``: advance the 1-D state ``x`` in place.
@@ -450,8 +453,10 @@ class ModelKernels:
 
     Attributes:
         deriv: ``deriv(X, U, p, out)``, the derivative of each row.
-        deriv1: ``deriv1(x, u, p, out) -> status`` for one state (:data:`DERIV1_SIG`).
-        step1: ``step1(x, u, p, dt, n) -> status``, one state in place (:data:`STEP1_SIG`).
+        deriv1: ``deriv1(x, u, p, out) -> status`` for one state (:data:`DERIV1_SIG`;
+            compiled on its first call, :func:`first_call`).
+        step1: ``step1(x, u, p, dt, n) -> status``, one state in place (:data:`STEP1_SIG`;
+            likewise).
         step: ``step(X, U, p, h, n, out) -> bool`` (``False``: a non-finite input).
         step_par: the same over numba's threads (``prange``), the same bits per row.
         block: ``block(X, U, P, h, n, out, work, b0)``, one vectorised block of
@@ -485,9 +490,38 @@ def _instance(body, module: str, file: str, name: str, slots: dict, **options):
     fn.__qualname__ = name
     fn.__doc__ = body.__doc__
     sig = options.pop("sig", None)
-    if sig is not None:  # eager: compiled (or loaded from the cache) now
-        return njit(sig, cache=True, **options)(fn)
-    return njit(cache=True, **options)(fn)
+    disp = njit(cache=True, **options)(fn)
+    if sig is not None:  # one signature, compiled (or loaded) on the first call: first_call
+        disp._can_compile = False  # (numba's disable_compile() wants a signature first)
+        disp._wheelgym_sig = sig
+    return disp
+
+
+def first_call(kernel: Any, *args: Any) -> Any:
+    """Call a single-state kernel of :func:`model_kernels` (``step1``, ``deriv1``) after a
+    ``TypeError``: where it has not been compiled yet, compile (or load from the disk cache)
+    its one signature and call it again; ``None`` where the arguments do not match that
+    signature (the caller's general path then handles them).
+
+    The kernels are built without compiling (importing a model compiles nothing) and take no
+    other signature; their callers catch the ``TypeError`` of the first call::
+
+        try:
+            status = kernel(*args)
+        except TypeError:
+            status = first_call(kernel, *args)
+    """
+    if kernel.signatures:
+        return None
+    kernel._can_compile = True
+    try:
+        kernel.compile(kernel._wheelgym_sig)
+    finally:
+        kernel._can_compile = False
+    try:
+        return kernel(*args)
+    except TypeError:
+        return None
 
 
 def model_kernels(

@@ -65,7 +65,7 @@ def test_step_work_is_rk4_of_augmented_state(robot, rows):
     Xo = np.empty_like(X)
     B = np.zeros_like(core.B)
     F = np.zeros_like(core.F)
-    assert spec.k_env_step(X, A, core.LH, core.P, core.h, core.n_sub, Xo, B, F)
+    assert spec.serial_kernel(False, rows)(X, A, core.LH, core.P, core.h, core.n_sub, Xo, B, F)
     lay = layout(core.m, B.shape[1] - 2 * core.m - 11)
     for i in range(rows):
         assert F[i, 1]

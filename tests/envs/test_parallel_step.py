@@ -35,15 +35,15 @@ def test_parallel_kernel_same_bits_as_serial(robot):
     spec = get_spec(robot)
     core = WheelCore(robot, N, randomize=True if spec.default_randomize else None)
     if numba.config.NUMBA_NUM_THREADS > 1:
-        assert core._k_step.kernels == (spec.k_env_step, spec.k_env_step_par)
+        assert core._k_step.kernels == (spec.serial_kernel(False, N), spec.k_env_step_par)
     else:  # NUMBA_NUM_THREADS=1 exported: the core keeps the serial kernel; the bits still
-        assert core._k_step is spec.k_env_step  # compare below (the threaded one on 1 thread)
+        assert core._k_step is spec.serial_kernel(False, N)  # compare below (threaded on 1 thread)
     core.reset(None, [np.random.default_rng(i) for i in range(N)])
     rng = np.random.default_rng(3)
     core.X[5, 3:] = np.inf  # a row whose step fails: restored, F_OK False
     for step in range(3):
         A = rng.uniform(-1.5, 1.5, (N, core.m))  # inside and outside [-1, 1]
-        s = _run(spec.k_env_step, core, A, core.n_sub)
+        s = _run(spec.serial_kernel(False, N), core, A, core.n_sub)
         p = _run(spec.k_env_step_par, core, A, core.n_sub)
         assert s[0] and p[0]
         for a, b in zip(s[1:], p[1:], strict=True):
@@ -61,10 +61,10 @@ def test_core_dispatch_on_batch_size(monkeypatch):
     spec = get_spec("SkidSteer")
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 2)  # whatever the caller exported
     assert WheelCore("SkidSteer", 1)._k_step is spec.k_env_step
-    assert WheelCore("SkidSteer", PAR_MIN_ROWS - 1)._k_step is spec.k_env_step
+    assert WheelCore("SkidSteer", PAR_MIN_ROWS - 1)._k_step is spec.k_env_blocks
     assert isinstance(WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step, FasterKernel)
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
-    assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_step
+    assert WheelCore("SkidSteer", PAR_MIN_ROWS)._k_step is spec.k_env_blocks
 
 
 def test_single_env_starts_no_numba_threads():

@@ -299,7 +299,7 @@ class WheelCore:
         """The step kernels of the motor model (``spec.step_kernels``): ``_k_serial`` and
         ``_k_step`` (for large batches the faster, timed in use, of the serial and the
         threaded kernel)."""
-        ks, kp = self.spec.step_kernels(self.dc)
+        ks, kp = self.spec.step_kernels(self.dc, self.num)
         self._k_serial = ks
         self._k_step = FasterKernel(ks, kp) if self.threaded else ks
 

@@ -6,9 +6,9 @@ dispatches to a serial kernel (small N) or a ``prange`` kernel (large N). Both k
 the same per-state derivative, so a single state and a batch of 16384 run the same code and
 give the same bits.
 
-A single 1-D float64 state takes a fast path: an eagerly compiled kernel with a fixed signature
-(``_k_step1`` / ``_k_deriv1``, see :data:`wheelgym.integrators.STEP1_SIG`) checks shapes and
-finiteness inside the compiled code and reports a status code; numba's own type dispatch
+A single 1-D float64 state takes a fast path: a kernel of one fixed signature, compiled on its
+first call (``_k_step1`` / ``_k_deriv1``, see :data:`wheelgym.integrators.STEP1_SIG`), checks
+shapes and finiteness inside the compiled code and reports a status code; numba's own type dispatch
 rejects anything else (lists, other dtypes, strided or read-only arrays) with ``TypeError``,
 and such calls take the general path.
 """
@@ -175,9 +175,10 @@ class Model:
     ``_k_step_par(...)`` (the same with ``prange``), usually from the
     :class:`~wheelgym.integrators.ModelKernels` of their kernel module; the step kernels return
     ``False`` when an input is not finite, before integrating anything. Optionally (for speed on
-    one state) ``_k_step1`` and ``_k_deriv1``, compiled with the signatures
-    :data:`~wheelgym.integrators.STEP1_SIG` / :data:`~wheelgym.integrators.DERIV1_SIG`, that
-    return a ``STATUS_*`` code of :mod:`wheelgym.integrators`.
+    one state) ``_k_step1`` and ``_k_deriv1``, of the one signature
+    :data:`~wheelgym.integrators.STEP1_SIG` / :data:`~wheelgym.integrators.DERIV1_SIG` each
+    (compiled on first use, :func:`~wheelgym.integrators.first_call`), that return a
+    ``STATUS_*`` code of :mod:`wheelgym.integrators`.
 
     Models opt into the checks of :mod:`wheelgym.validate` by providing ``stiffness()``
     (stability margin), ``kinetic_energy``/``motor_power``/``friction_power`` (energy balance)
@@ -337,9 +338,9 @@ class Model:
             out = np.empty(self._nx)
             try:
                 status = self._deriv1(x, u, self._p, out)
-            except TypeError:
-                pass  # not 1-D float64 arrays: the general path below
-            else:
+            except TypeError:  # not compiled yet, or not 1-D float64 arrays (then None)
+                status = _itg.first_call(self._deriv1, x, u, self._p, out)
+            if status is not None:
                 if status == 0:
                     return out
                 self._raise_status(status, "derivative", x, u)
@@ -382,9 +383,9 @@ class Model:
                 out = x.copy()
                 try:
                     status = self._step1(out, u, self._p, dt, n_substeps)
-                except TypeError:
-                    pass
-                else:
+                except TypeError:  # not compiled yet, or other argument types (then None)
+                    status = _itg.first_call(self._step1, out, u, self._p, dt, n_substeps)
+                if status is not None:
                     if status == 0:
                         return out
                     self._raise_status(status, "step", x, u, dt)

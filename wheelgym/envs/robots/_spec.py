@@ -8,9 +8,14 @@ from typing import Any
 
 import numpy as np
 
+from wheelgym import _numba_cache
+from wheelgym.integrators import LANES
 from wheelgym.models import Model, Params
 
 __all__ = ["RobotSpec", "RANDOMIZE_GROUPS", "VOLTAGE_MODE"]
+
+#: A first compile of at least this many seconds (``RobotSpec.compile_s``) prints a notice.
+NOTICE_MIN_S = 3.0
 
 #: Randomisation groups accepted by ``randomize=``; each robot supports a subset.
 RANDOMIZE_GROUPS = (
@@ -32,8 +37,11 @@ class RobotSpec:
         name: robot name used in ids (``"SkidSteer"``...).
         model_cls: the :class:`~wheelgym.models.Model` subclass.
         k_env_step: compiled ``k_env_step(X, A, LH, P, h, n, Xo, B, F) -> bool`` (see
-            ``body.env_step_body``; ThreeWheel and SkidSteer step ``LANES`` rows or more in
-            vectorised blocks, ``body.env_step_blocks``, with the same bits per row).
+            ``body.env_step_body``), a row at a time, for any batch size.
+        k_env_blocks, k_env_blocks_dc: the same step (ideal, DC motors) in the model's
+            vectorised blocks of ``LANES`` robots (``body.env_step_blocks``, the same bits per
+            row), used from ``LANES`` rows (:meth:`serial_kernel`); None where the model has
+            no block kernel. A separate kernel, so that a single env never compiles it.
         k_env_step_par: the same kernel with the rows (or blocks) spread over numba's
             threads (``parallel=True``; same bits per row), used from ``body.PAR_MIN_ROWS``
             rows.
@@ -73,6 +81,11 @@ class RobotSpec:
             proportional twist loop on the wheel torques, or the kinematic inputs).
         n_steer_motor: the last ``n_steer_motor`` motors steer wheels 0, 1, ...; the others
             drive wheels 0, 1, ... (the renderer's torque arrows).
+        compile_s: measured seconds of the first compile (``benchmarks/coldstart.py``, on
+            the 2-core development machine) of the single env's kernels (``"step"``: the
+            slowest action mode and task), of its DC-motor kernels (``"dc"``) and of the
+            block and threaded kernels of the vector env (``"blocks"``); those of 3 s or more
+            print a notice when their compile starts (``_numba_cache.announce``).
         stiffness_probe: configurations (the model's ``stiffness`` argument, e.g. steering
             angles) at which the ``randomize`` extremes' RK4 stiffness is evaluated, scaled by
             full/probe at the nominal parameters (cheaper than the full grid); None: the
@@ -108,6 +121,22 @@ class RobotSpec:
     stiffness_probe: tuple[tuple[float, ...], ...] | None = None
     k_env_step_dc: Any = None
     k_env_step_par_dc: Any = None
+    k_env_blocks: Any = None
+    k_env_blocks_dc: Any = None
+    compile_s: Mapping[str, float] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        c = self.compile_s
+        # the kinematic robots share one step kernel (its notice names them all)
+        who = "the kinematic robots'" if self.kinematic else f"the {self.name}"
+        for key, what, kernels in (
+                ("step", f"{who} kernels", (self.k_env_step,)),
+                ("dc", f"the {self.name} DC-motor kernels", (self.k_env_step_dc,)),
+                ("blocks", f"the {self.name} vector-env kernels",
+                 (self.k_env_blocks, self.k_env_blocks_dc, self.k_env_step_par,
+                  self.k_env_step_par_dc))):
+            if c.get(key, 0.0) >= NOTICE_MIN_S:
+                _numba_cache.announce(what, c[key], *kernels)
 
     # ------------------------------------------------------------------ derived
     @property
@@ -149,11 +178,20 @@ class RobotSpec:
         voltage), else ``motor`` itself."""
         return "dc_voltage" if mode in self.dc_action_modes else motor
 
-    def step_kernels(self, dc: bool) -> tuple[Any, Any]:
-        """``(serial, parallel)`` env step kernels: ideal motors or (``dc``) DC motors."""
-        if dc:
-            return self.k_env_step_dc, self.k_env_step_par_dc
-        return self.k_env_step, self.k_env_step_par
+    def serial_kernel(self, dc: bool, rows: int) -> Any:
+        """The serial env step kernel for a batch of ``rows``: the block kernel
+        (:attr:`k_env_blocks`, ``dc``: :attr:`k_env_blocks_dc`) from ``LANES`` rows where the
+        robot has one, else the row kernel (:attr:`k_env_step`, :attr:`k_env_step_dc`)."""
+        blocks = self.k_env_blocks_dc if dc else self.k_env_blocks
+        if blocks is not None and rows >= LANES:
+            return blocks
+        return self.k_env_step_dc if dc else self.k_env_step
+
+    def step_kernels(self, dc: bool, rows: int = 1) -> tuple[Any, Any]:
+        """``(serial, parallel)`` env step kernels for a batch of ``rows``: ideal motors or
+        (``dc``) DC motors; the serial one is :meth:`serial_kernel`'s."""
+        return self.serial_kernel(dc, rows), (self.k_env_step_par_dc if dc
+                                               else self.k_env_step_par)
 
     def action_dim(self, mode: str) -> int:
         """Size of the normalised action in ``mode``."""

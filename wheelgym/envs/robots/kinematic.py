@@ -114,6 +114,7 @@ def _spec(name, cls, nx, geom, wheels, feats=(), randomize=None, default=None,
         randomize=randomize or {}, default_randomize=default or {},
         initial_state=partial(_initial_state, nx), n_motor=0, has_internal_force=False,
         geometry=geom, wheels=wheels, twist_modes=(), turns_in_place=turns_in_place,
+        compile_s={"step": 6.0},  # benchmarks/coldstart.py
     )
 
 

@@ -14,7 +14,6 @@ from wheelgym.envs.robots.body import (
     env_step_blocks_par,
     env_step_body,
 )
-from wheelgym.integrators import LANES
 from wheelgym.models import SkidSteer, SkidSteerParams
 from wheelgym.models import motor as _motor
 from wheelgym.models.kernels.skid_steer import (
@@ -58,11 +57,16 @@ def _feats(x, u, p, pose, twist, feat):  # pragma: no cover - compiled
     return 0.0
 
 
+# The serial kernels: a row at a time (the single env and small batches), and from LANES rows
+# in the model's vectorised blocks (the same bits); separate, so that each compiles only what
+# its batch size runs (RobotSpec.serial_kernel picks one)
 @njit(cache=True)
 def k_env_step(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    if X.shape[0] < LANES:  # the single env: a row at a time (the same bits as the blocks)
-        return env_step_body(deriv_one, power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
-                             F)
+    return env_step_body(deriv_one, power_t, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
+
+
+@njit(cache=True)
+def k_env_blocks(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_blocks(k_block, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
@@ -79,9 +83,12 @@ def k_env_step_par(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
 # DC motors (``motor="dc"``): the same kernels on the model's DC derivative and electrical power
 @njit(cache=True)
 def k_env_step_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
-    if X.shape[0] < LANES:
-        return env_step_body(deriv_one_dc, power_t_dc, _jrate, _feats, X, A, LH, P, h, n, Xo,
-                             B, F)
+    return env_step_body(deriv_one_dc, power_t_dc, _jrate, _feats, X, A, LH, P, h, n, Xo, B,
+                         F)
+
+
+@njit(cache=True)
+def k_env_blocks_dc(X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - compiled
     return env_step_blocks(_k_block_dc, _jrate, _feats, X, A, LH, P, h, n, Xo, B, F)
 
 
@@ -128,6 +135,8 @@ SPEC = RobotSpec(
     k_env_step_par=k_env_step_par,
     k_env_step_dc=k_env_step_dc,
     k_env_step_par_dc=k_env_step_par_dc,
+    k_env_blocks=k_env_blocks,
+    k_env_blocks_dc=k_env_blocks_dc,
     input_bounds=_input_bounds,
     action_modes=("torque", "velocity"),
     twist_dim=2,
@@ -157,4 +166,5 @@ SPEC = RobotSpec(
     wheels=_wheels,
     motor_names=("rear_left", "front_left", "front_right", "rear_right"),
     baseline_controllers=True,
+    compile_s={"step": 15.0, "dc": 15.0, "blocks": 40.0},  # benchmarks/coldstart.py
 )
