@@ -7,7 +7,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-slow lint bench validate clean-venv wheel-smoke
+.PHONY: run test test-slow lint bench validate docs docs-check clean-venv wheel-smoke
 
 $(STAMP): pyproject.toml setup.py
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +42,19 @@ validate: $(STAMP)
 # Build the wheel, install it in a fresh venv, run the main job from an empty folder (CI).
 wheel-smoke: $(STAMP)
 	VENV_PY=$(PY) bash .ci/wheel-smoke
+
+# The documentation site (docs/, Sphinx + MyST + furo): warnings are errors. docs-check opens
+# every built page in headless Chromium (Debian's chromium package, /usr/bin/chromium).
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP)
+	$(PIP) install --quiet -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+
+docs-check: docs
+	$(PY) -m pytest -q -p no:xdist -m browser tests/test_docs_browser.py
 
 clean-venv:
 	rm -rf $(VENV)
