@@ -51,3 +51,26 @@ def test_subpackages_are_attributes_in_a_fresh_interpreter() -> None:
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
+
+
+def test_readme_is_one_screen_and_a_little_more() -> None:
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 200, f"README.md has {len(lines)} lines (at most 200: the rest is docs/)"
+
+
+def test_readme_results_summary_counts_the_csv() -> None:
+    """The summary between the README's results-summary markers says how many configs of the
+    committed CSV meet their targets (the targets column of ``wheelgym benchmark --table``)."""
+    from wheelgym.agents.benchmark import DEFAULT_CSV, format_table, read_rows
+
+    text = README.read_text(encoding="utf-8")
+    m = re.search(r"<!-- results-summary: begin -->(.*?)<!-- results-summary: end -->", text,
+                  flags=re.DOTALL)
+    assert m, "README.md has no results-summary markers"
+    table = format_table(read_rows(README.parent / DEFAULT_CSV))
+    rows = [ln for ln in table.splitlines()
+            if ln.startswith("| ") and not ln.startswith(("| config", "|---"))]
+    met = sum(ln.rstrip().endswith("| met |") for ln in rows)
+    counts = re.search(r"(\d+) of (\d+) configs", m.group(1))
+    assert counts, m.group(1)
+    assert (int(counts.group(1)), int(counts.group(2))) == (met, len(rows))
