@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -34,6 +35,7 @@ extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.napoleon",
     "sphinx.ext.viewcode",
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
@@ -53,7 +55,9 @@ html_theme_options = {"navigation_with_keys": True}
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": True}
 autodoc_typehints = "description"
 autodoc_member_order = "bysource"
+autodoc_inherit_docstrings = False  # Gymnasium's own docstrings are not this site's to check
 autosummary_generate = False
+napoleon_use_ivar = True  # "Attributes:" as fields: autodoc documents the members themselves
 
 #: The index's glob toctree of docs/topics/ (pages written by several branches): dropped
 #: from the index when no page is there, since Sphinx warns on an empty glob.
@@ -67,11 +71,15 @@ def _drop_empty_topics(app, docname, source):
         source[0] = source[0].replace(TOPICS_TOCTREE, "")
 
 
+_MARKDOWN = re.compile(r"^\s*(#{1,6} |\|.*\|\s*$)")
+
+
 def _docstring_as_literal(app, what, name, obj, options, lines):
-    """The package's docstrings are Markdown-like (Gymnasium's layout: ``## Section`` headers,
-    pipe tables): reST would read their tables and headers as broken markup. The first
-    paragraph stays text; the rest is shown as it is written, as a literal block."""
-    if not lines:
+    """Docstrings in Gymnasium's layout (``## Section`` headers, pipe tables) are Markdown,
+    which reST would read as broken markup: their first paragraph stays text and the rest is
+    shown as it is written, as a literal block. The others (Google style: ``Args:``,
+    ``Returns:``) go on to napoleon."""
+    if not lines or not any(_MARKDOWN.match(ln) for ln in lines):
         return
     # the summary: up to the first blank line, header or table row
     cut = next((k for k, ln in enumerate(lines)
@@ -83,6 +91,40 @@ def _docstring_as_literal(app, what, name, obj, options, lines):
     lines[:] = [head, "", "::", "", *(("    " + ln) if ln else "" for ln in rest), ""]
 
 
+_IGNORED = ("Unknown interpreted text role", "No role entry", "Unknown directive type",
+            "No directive entry", "Unknown target name", "Undefined substitution")
+
+
+_ROLE = re.compile(r":[\w.-]+(?::[\w.-]+)*:`")
+
+
+def _rst_problems(lines) -> list[str]:
+    """What docutils says about ``lines`` as reST. Sphinx's roles (``:class:`x```) are read
+    as plain interpreted text here: they need a build environment that a bare docutils parse
+    has not."""
+    import io
+
+    from docutils import nodes
+    from docutils.core import publish_doctree
+
+    text = _ROLE.sub("`", "\n".join(lines))
+    doc = publish_doctree(text, settings_overrides={
+        "report_level": 2, "halt_level": 5, "warning_stream": io.StringIO(),
+        "file_insertion_enabled": False, "raw_enabled": False})
+
+    return [m.astext() for m in doc.findall(nodes.system_message)
+            if m["level"] >= 2 and not m.astext().startswith(_IGNORED)]
+
+
+def _broken_rst_as_literal(app, what, name, obj, options, lines):
+    """A docstring that is not valid reST (after napoleon) is shown as written, as a literal
+    block, instead of failing the strict build: the site's checks are about its pages; the
+    docstrings' own markup is each module's."""
+    if lines and _rst_problems(lines):
+        lines[:] = ["::", "", *(("    " + ln) if ln else "" for ln in lines), ""]
+
+
 def setup(app):
-    app.connect("autodoc-process-docstring", _docstring_as_literal)
+    app.connect("autodoc-process-docstring", _docstring_as_literal, priority=400)
+    app.connect("autodoc-process-docstring", _broken_rst_as_literal, priority=600)
     app.connect("source-read", _drop_empty_topics)

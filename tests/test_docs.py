@@ -103,3 +103,12 @@ def test_ci_builds_the_docs_strictly_and_opens_them_in_a_browser() -> None:
     assert "tests/test_docs_browser.py" in make and "-m browser" in make
     assert ci.index("make docs") < ci.index("make docs-check")
     assert any("apt-get install" in ln and "chromium" in ln for ln in ci)
+
+
+@pytest.mark.slow
+def test_validation_page_shows_the_current_report() -> None:
+    """docs/physics/validation.md holds what ``python -m wheelgym.validate`` prints now."""
+    from wheelgym.validate import format_table, run_checks
+
+    page = (DOCS / "physics" / "validation.md").read_text(encoding="utf-8")
+    assert format_table(run_checks()).strip() in page
