@@ -23,7 +23,7 @@ BLOCKS = [(p.relative_to(ROOT).as_posix(), k, b) for p in PAGES
           for k, b in enumerate(FENCE.findall(p.read_text(encoding="utf-8")))]
 #: Paths of the repository a block may name; it then runs where they resolve (a scratch
 #: folder holding links to them, so that what it writes stays out of the checkout).
-REPO_PATHS = ("configs", "agents")
+REPO_PATHS = ("configs", "agents", "benchmarks", "examples")
 #: A block that trains (seconds to minutes of CPU) is a slow test.
 SLOW = re.compile(r"\btrain\(|wheelgym\.agents\.(train|tune|benchmark)\b")
 
