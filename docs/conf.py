@@ -18,15 +18,21 @@ copyright = "2026, the wheelgym developers"  # noqa: A001  (Sphinx's name)
 
 
 def _version() -> str:
+    """The package's version: ``wheelgym.__version__`` where it has one, else its metadata,
+    else what pyproject.toml names."""
     try:
+        import wheelgym
+
+        if getattr(wheelgym, "__version__", None):
+            return str(wheelgym.__version__)
         from importlib.metadata import version
 
         return version("wheelgym")
-    except Exception:  # an unbuilt checkout: the version pyproject.toml names
+    except Exception:  # an unbuilt checkout
         import tomllib
 
-        return tomllib.loads((ROOT / "pyproject.toml").read_text())["project"].get(
-            "version", "")
+        project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+        return str(project.get("version", ""))
 
 
 release = version = _version()
@@ -58,6 +64,11 @@ autodoc_member_order = "bysource"
 autodoc_inherit_docstrings = False  # Gymnasium's own docstrings are not this site's to check
 autosummary_generate = False
 napoleon_use_ivar = True  # "Attributes:" as fields: autodoc documents the members themselves
+
+suppress_warnings = [
+    # heading levels that skip one (# then ###) are a page's style, not a broken site
+    "myst.header",
+]
 
 #: The index's glob toctree of docs/topics/ (pages written by several branches): dropped
 #: from the index when no page is there, since Sphinx warns on an empty glob.
