@@ -64,8 +64,37 @@ def md(text: str, up: str = "..") -> str:
     become links, relative to a page ``up`` below docs/."""
     text = re.sub(r":(?:class|func|meth|mod|attr|data):`~?([^`]+)`", r"`\1`", text)
     text = re.sub(r"``([^`]+)``", r"`\1`", text)
-    return re.sub(r"(?<![\w/`\[(])docs/physics/([\w-]+)\.md",
+    text = re.sub(r"(?<![\w/`\[(])docs/physics/([\w-]+)\.md",
                   rf"[docs/physics/\1.md]({up}/physics/\1.md)", text)
+    return join_wrapped_rows(text)
+
+
+#: Tables whose rows with an empty first cell continue the row above (the docstrings wrap
+#: long cells over several rows); other tables list one entry per row.
+_WRAPPED = {"argument", "key", "term", "name"}
+
+
+def join_wrapped_rows(text: str) -> str:
+    """Pipe-table rows that only continue the cells of the row above, joined into it."""
+    out: list[str] = []
+    header: list[str] | None = None
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip()[1:-1].split("|")] \
+            if line.strip().startswith("|") and line.strip().endswith("|") else None
+        if cells is None:
+            header = None
+        elif header is None:
+            header = cells
+        elif set("".join(cells)) <= set("-: ") or not out:
+            pass
+        elif not cells[0] and (header[0].lower() in _WRAPPED or not cells[1]):
+            prev = [c.strip() for c in out[-1].strip()[1:-1].split("|")]
+            if len(prev) == len(cells):
+                joined = [f"{a} {b}".strip() for a, b in zip(prev, cells, strict=True)]
+                out[-1] = "| " + " | ".join(joined) + " |"
+                continue
+        out.append(line)
+    return "\n".join(out)
 
 
 def dedent_doc(doc: str) -> str:
