@@ -112,3 +112,29 @@ def test_validation_page_shows_the_current_report() -> None:
 
     page = (DOCS / "physics" / "validation.md").read_text(encoding="utf-8")
     assert format_table(run_checks()).strip() in page
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("topics", [(), ("performance", "clients")])
+def test_site_builds_strictly_with_or_without_topic_pages(topics, tmp_path: Path) -> None:
+    """docs/topics/ is written by several branches: the strict build (``make docs``'s flags)
+    passes with none or some of its pages, and the index lists those present."""
+    pytest.importorskip("sphinx")
+    import shutil
+
+    src = tmp_path / "docs"
+    shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build", "topics"))
+    (tmp_path / "benchmarks").symlink_to(ROOT / "benchmarks")  # the pages' figures
+    (src / "topics").mkdir()
+    for name in topics:
+        (src / "topics" / f"{name}.md").write_text(f"# {name.title()}\n\nA [link](../index.md).\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT),
+                                                        os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
+                        str(src), str(tmp_path / "html")], env=env, capture_output=True,
+                       text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    index = (tmp_path / "html" / "index.html").read_text(encoding="utf-8")
+    for name in topics:
+        assert f'href="topics/{name}.html"' in index
+    assert ("Topics" in index) == bool(topics)
