@@ -74,3 +74,14 @@ def test_readme_results_summary_counts_the_csv() -> None:
     counts = re.search(r"(\d+) of (\d+) configs", m.group(1))
     assert counts, m.group(1)
     assert (int(counts.group(1)), int(counts.group(2))) == (met, len(rows))
+
+
+def test_readme_links_resolve() -> None:
+    """Every relative link and picture of the README (into docs/ mostly) names a file of the
+    repository."""
+    text = README.read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text)
+    local = [t for t in targets if not re.match(r"[a-z]+://", t)]
+    assert len(local) >= 10
+    missing = [t for t in local if not (README.parent / t).exists()]
+    assert not missing, missing
