@@ -1,4 +1,5 @@
-"""The three-wheel paper's simulation (section 5, physics.md TW-7), with its Fig. 4 and Fig. 5.
+"""The three-wheel paper's simulation (section 5, docs/physics/three-wheel.md TW-7), with its Fig. 4
+and Fig. 5.
 
 Inverse dynamics along the paper's trajectory (beta(t) quintic, 0 -> 2 pi in 60 s, the
 platform's x axis tangent to a 1 m circle) gives the generalized force and, through the

@@ -1,4 +1,5 @@
-"""Singularity maps of the caster robots (physics.md TW-2, caster-singularity paper).
+"""Singularity maps of the caster robots (docs/physics/three-wheel.md TW-2, caster-singularity
+paper).
 
 Plots ``det J_S`` of the ThreeWheel robot over two steering angles for three input-joint
 choices (the three-wheel paper's ``(drive_1, drive_2, steer_3)``, all drives, all steering

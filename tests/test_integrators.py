@@ -1,4 +1,4 @@
-"""RK4 and time-step bookkeeping (physics.md section 1)."""
+"""RK4 and time-step bookkeeping (docs/physics/conventions.md)."""
 
 from __future__ import annotations
 

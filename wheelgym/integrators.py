@@ -1,4 +1,4 @@
-"""Fixed-step integration (physics.md section 1).
+"""Fixed-step integration (docs/physics/conventions.md).
 
 Two entry points share one algorithm, the classic four-stage Runge-Kutta method
 (three-wheel paper 3.3):
@@ -616,7 +616,7 @@ def check_substeps(n_substeps: int) -> int:
 
 
 def n_substeps(ctrl_dt: float, sim_dt: float) -> int:
-    """Number of physics substeps in one control step (physics.md section 1).
+    """Number of physics substeps in one control step (docs/physics/conventions.md).
 
     Raises:
         ValueError: if either step is not a positive finite number, or if ``ctrl_dt`` is not a

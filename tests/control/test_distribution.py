@@ -1,4 +1,5 @@
-"""Load distribution (physics.md TW-6, SS-4): residuals, orthogonality, limits against an LP."""
+"""Load distribution (docs/physics/three-wheel.md TW-6, docs/physics/skid-steer.md SS-4): residuals,
+orthogonality, limits against an LP."""
 
 import numpy as np
 import pytest
@@ -26,7 +27,7 @@ TMAX = np.array([6.0, 6.0, 6.0, 3.0, 3.0, 3.0])
 
 
 def tw_jacobian(psi):
-    """physics.md TW-1 written out independently: rows [drive_1..3, steer_1..3]."""
+    """docs/physics/three-wheel.md TW-1 written out independently: rows [drive_1..3, steer_1..3]."""
     psi = np.asarray(psi, dtype=float)
     J = np.zeros(psi.shape[:-1] + (6, 3))
     for i in range(3):

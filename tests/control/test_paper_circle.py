@@ -1,4 +1,4 @@
-"""The three-wheel paper's experiment (section 5, physics.md TW-7)."""
+"""The three-wheel paper's experiment (section 5, docs/physics/three-wheel.md TW-7)."""
 
 import importlib.util
 from pathlib import Path

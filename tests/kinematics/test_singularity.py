@@ -1,4 +1,5 @@
-"""Singularity analysis of the caster robots for chosen input joints (physics.md TW-2, 5)."""
+"""Singularity analysis of the caster robots for chosen input joints (docs/physics/three-wheel.md
+TW-2, docs/physics/caster-robots.md)."""
 
 from __future__ import annotations
 

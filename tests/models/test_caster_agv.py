@@ -1,5 +1,5 @@
 """CasterAGV: an independent full-coordinate Lagrange-multiplier model, energy balance,
-caster trailing, batching, parameter checks (physics.md section 5)."""
+caster trailing, batching, parameter checks (docs/physics/caster-robots.md)."""
 
 from __future__ import annotations
 

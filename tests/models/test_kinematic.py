@@ -1,4 +1,4 @@
-"""Kinematic models: analytic answers, saturation, modes, batching (physics.md section 4)."""
+"""Kinematic models: analytic answers, saturation, modes, batching (docs/physics/kinematic.md)."""
 
 from __future__ import annotations
 

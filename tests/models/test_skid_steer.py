@@ -1,4 +1,4 @@
-"""SkidSteer (physics.md section 3) against independent derivations and analytic answers.
+"""SkidSteer (docs/physics/skid-steer.md) against independent derivations and analytic answers.
 
 The reference below is written independently of the package: per-wheel forces (eight of them,
 each wheel's own load and velocity) and Newton-Euler equations in the body frame with the ICR

@@ -1,4 +1,4 @@
-"""Tests of the three-wheel model (physics.md section 2, TW-1..TW-5).
+"""Tests of the three-wheel model (docs/physics/three-wheel.md, TW-1..TW-5).
 
 The central check is an independent second formulation: Lagrange's equations in the full
 coordinates ``q = (x, y, yaw, psi_1..3, theta_1..3)`` with multipliers for the six rolling and
@@ -169,7 +169,8 @@ def integrate_model(model: ThreeWheel, x0: np.ndarray, t_end: float, tau_fn, t_e
 
 # ------------------------------------------------------------------ tests
 def test_against_full_coordinate_lagrange_formulation():
-    """physics.md TW-3: same trajectories as Lagrange multipliers in full coordinates, 1e-8."""
+    """docs/physics/three-wheel.md TW-3: same trajectories as Lagrange multipliers in full
+    coordinates, 1e-8."""
     model = ThreeWheel()
     ref = reference(model.params)
     x0 = moving_start()
@@ -292,7 +293,7 @@ def test_no_slip_along_a_run():
 
 
 def test_rk4_order():
-    """RK4's global error falls 16x (+-25%) when the step halves (physics.md section 1)."""
+    """RK4's global error falls 16x (+-25%) when the step halves (docs/physics/conventions.md)."""
     model = ThreeWheel()
     x0 = moving_start()
     x0[3] = 1.0

@@ -1,4 +1,5 @@
-"""Load distribution (pure functions) and analytic baseline controllers (physics.md TW-6, SS-4).
+"""Load distribution (pure functions) and analytic baseline controllers (docs/physics/three-wheel.md
+TW-6, docs/physics/skid-steer.md SS-4).
 
 The analytic baseline *policy* that drives an environment is ``wheelgym.baseline(env)``
 (:mod:`wheelgym.envs.baseline`).

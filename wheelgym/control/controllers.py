@@ -7,14 +7,15 @@ Two controllers per robot, both stateless in :meth:`torques` (batched over leadi
 * :class:`TrackingController` follows a reference trajectory (pose, twist, twist rate).
 
 Both compute a desired acceleration, the generalized force it needs by inverse dynamics
-(physics.md TW-6: ``Q_d = M udot_d + c - Q_f``; SS-4: ``Bbar tau_LR = Mbar etadot_d + Cbar eta +
+(docs/physics/three-wheel.md TW-6: ``Q_d = M udot_d + c - Q_f``; docs/physics/skid-steer.md
+SS-4: ``Bbar tau_LR = Mbar etadot_d + Cbar eta +
 Rbar``), and the motor torques through a load distribution (:mod:`wheelgym.control.distribution`).
 Torques over a limit are scaled down uniformly (every motor by the same factor, so the
 generalized force keeps its direction) and reported as ``saturated``.
 
 Sampling. The controllers are designed for torques computed once per control step and held
 over it: the control period ``ctrl_dt`` is an argument of each controller (default the model's
-``default_ctrl_dt``, physics.md section 1), the environment passing its own.
+``default_ctrl_dt``, docs/physics/conventions.md), the environment passing its own.
 
 * twist loop ``udot_d = k_v (u_cmd - u)``: with the torque held, the twist error after one step
   is ``(1 - k_v ctrl_dt)`` times the error before, so the default ``k_v = 1 / ctrl_dt``
@@ -267,7 +268,7 @@ def _tw_track_one(x, pose, tw, rate, p, tmax, kp, kd, dt, mode, tau):  # pragma:
     vx, vy, wz = x[3], x[4], x[5]
     cy, sy = math.cos(yaw), math.sin(yaw)
     cr, sr = math.cos(pose[2]), math.sin(pose[2])
-    # world velocities of robot and reference (physics.md section 0)
+    # world velocities of robot and reference (docs/physics/conventions.md)
     vwx = cy * vx - sy * vy
     vwy = sy * vx + cy * vy
     rwx = cr * tw[0] - sr * tw[1]

@@ -1,4 +1,5 @@
-"""Load distribution for redundantly actuated platforms (physics.md TW-6, SS-4).
+"""Load distribution for redundantly actuated platforms (docs/physics/three-wheel.md TW-6,
+docs/physics/skid-steer.md SS-4).
 
 A platform with ``k`` degrees of freedom driven by ``m >= k`` motors obeys
 ``Q = J^T tau`` (three-wheel paper (34)-(35)): ``J`` (m x k) maps the body twist to the joint
@@ -70,7 +71,7 @@ __all__ = [
 ]
 
 #: The three-wheel paper's independent joints S = {drive_1, drive_2, steer_3} (its eq. (7),
-#: physics.md TW-2), as indices in motor order.
+#: docs/physics/three-wheel.md TW-2), as indices in motor order.
 PAPER_INPUT_JOINTS = (0, 1, 5)
 
 #: Distribution modes accepted by :func:`distribute` and the controllers.
@@ -617,7 +618,8 @@ def _run(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, np.ndarra
 
 
 def min_norm(J: Any, Q: Any) -> np.ndarray:
-    """Minimum-norm torques ``tau = J (J^T J)^-1 Q`` (three-wheel paper (36), physics.md TW-6).
+    """Minimum-norm torques ``tau = J (J^T J)^-1 Q`` (three-wheel paper (36),
+    docs/physics/three-wheel.md TW-6).
 
     Args:
         J: joint-rate Jacobian ``(..., m, k)`` (``qdot = J u``).
@@ -630,7 +632,8 @@ def min_norm(J: Any, Q: Any) -> np.ndarray:
 
 
 def weighted(J: Any, Q: Any, tau_max: Any) -> np.ndarray:
-    """Torques minimising ``sum (tau_k / tau_max_k)^2`` with ``J^T tau = Q`` (physics.md TW-6).
+    """Torques minimising ``sum (tau_k / tau_max_k)^2`` with ``J^T tau = Q``
+    (docs/physics/three-wheel.md TW-6).
 
     ``tau = W J (J^T W J)^-1 Q`` with ``W = diag(tau_max^2)``: every motor works at a share of
     its own limit. With ``tau_max`` equal to the normal loads this is the load-proportional split.
@@ -737,7 +740,8 @@ def paper_distribution(J: Any, Q: Any, S: Any = PAPER_INPUT_JOINTS
     ``qdot_p = [G_a^p] qdot_S`` with ``[G_a^p] = J_p J_S^-1`` (paper (9), (33)). The generalized
     force in S-coordinates is ``Q_S = J_S^-T Q`` (the torques of paper (30), its Fig. 4e), and
     ``[G] [tau_S; tau_p] = Q_S`` with ``[G] = [I : [G_a^p]^T]`` (paper (35)); the minimum-norm
-    solution ``[G]^T ([G][G]^T)^-1 Q_S`` (paper (36)) equals :func:`min_norm` (physics.md TW-6).
+    solution ``[G]^T ([G][G]^T)^-1 Q_S`` (paper (36)) equals :func:`min_norm`
+    (docs/physics/three-wheel.md TW-6).
 
     Args:
         J: ``(..., m, k)``; Q: generalized force in body-twist coordinates ``(..., k)``;
@@ -764,7 +768,7 @@ def independent_joint_force(J: Any, Q: Any, S: Any = PAPER_INPUT_JOINTS) -> np.n
 
 
 def skid_steer_split(tau_sides: Any, loads: Any = None) -> np.ndarray:
-    """Split each side's torque over its two motors (physics.md SS-4).
+    """Split each side's torque over its two motors (docs/physics/skid-steer.md SS-4).
 
     Args:
         tau_sides: ``(..., 2)`` = ``(tau_L, tau_R)`` (N·m).

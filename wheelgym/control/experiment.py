@@ -1,4 +1,5 @@
-"""The three-wheel paper's simulation (its section 5, physics.md TW-7), as a function.
+"""The three-wheel paper's simulation (its section 5, docs/physics/three-wheel.md TW-7), as a
+function.
 
 Inverse dynamics along the paper's trajectory gives the motor torques; forward dynamics run
 open loop with those torques must reproduce the joint angles of the inverse-kinematics

@@ -8,7 +8,7 @@ __all__ = ["WheelCore", "WheelEnv", "SkidSteerEnv", "ThreeWheelEnv", "CasterAGVE
 
 
 class SkidSteerEnv(WheelEnv):
-    """Four-wheel skid-steer robot (Husky-like; physics.md section 3, Kozlowski-Pazderski).
+    """Four-wheel skid-steer robot (Husky-like; docs/physics/skid-steer.md, Kozlowski-Pazderski).
 
     ## Description
     A 56.6 kg platform with four fixed wheels, two motors per side; turning skids the wheels
@@ -29,7 +29,7 @@ class SkidSteerEnv(WheelEnv):
 
 
 class ThreeWheelEnv(WheelEnv):
-    """Three-wheel redundantly actuated robot (physics.md section 2, three-wheel paper).
+    """Three-wheel redundantly actuated robot (docs/physics/three-wheel.md, three-wheel paper).
 
     ## Description
     A 23 kg platform on three off-centred steerable wheel modules (rear-left, rear-right,
@@ -53,7 +53,7 @@ class ThreeWheelEnv(WheelEnv):
 
 
 class CasterAGVEnv(WheelEnv):
-    """Differential-drive AGV with a passive trailing caster (physics.md section 5).
+    """Differential-drive AGV with a passive trailing caster (docs/physics/caster-robots.md).
 
     ## Description
     A 23 kg platform on two driven wheels and a passive front caster whose swivel angle is a
@@ -72,7 +72,7 @@ class CasterAGVEnv(WheelEnv):
 
 
 class DiffDriveEnv(WheelEnv):
-    """Kinematic differential drive (physics.md section 4).
+    """Kinematic differential drive (docs/physics/kinematic.md).
 
     ## Action Space
     ``Box(-1, 1, (2,))`` mapped onto the input mode's bounds: ``WheelSpeeds`` (phidot_L,
@@ -84,7 +84,7 @@ class DiffDriveEnv(WheelEnv):
 
 
 class UnicycleEnv(WheelEnv):
-    """Kinematic unicycle (physics.md section 4); action modes ``WheelSpeedHeadingRate``
+    """Kinematic unicycle (docs/physics/kinematic.md); action modes ``WheelSpeedHeadingRate``
     (default) and ``VehicleSpeedHeadingRate``, scaled onto the nominal model's input bounds.
     With ``randomize`` (wheel_radius) a wheel-speed command drives at the drawn radius; a
     vehicle-speed command is changed only where the wheel-speed limit cuts it
@@ -94,14 +94,14 @@ class UnicycleEnv(WheelEnv):
 
 
 class BicycleEnv(WheelEnv):
-    """Kinematic bicycle (physics.md section 4); action modes ``VehicleSpeedSteeringAngle``
+    """Kinematic bicycle (docs/physics/kinematic.md); action modes ``VehicleSpeedSteeringAngle``
     (default) and ``VehicleSpeedHeadingRate``, scaled onto the model's input bounds."""
 
     robot = "Bicycle"
 
 
 class AckermannEnv(WheelEnv):
-    """Kinematic Ackermann car (physics.md section 4); action ``(v, psidot)`` scaled onto the
+    """Kinematic Ackermann car (docs/physics/kinematic.md); action ``(v, psidot)`` scaled onto the
     model's bounds; the steering angle is an extra feature (cos, sin)."""
 
     robot = "Ackermann"

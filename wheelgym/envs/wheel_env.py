@@ -22,7 +22,7 @@ _DOC = """
 ## Observation Space
 
 float32 ``Box`` with finite bounds; angles enter as cos/sin; positions are in the robot's body
-frame B (x forward, y left, physics.md section 0) and clipped to +-12 m; speeds to twice the
+frame B (x forward, y left, docs/physics/conventions.md) and clipped to +-12 m; speeds to twice the
 sanity limits. Layout by task (the robot's features, listed above, come after the twist):
 
 | task     | entries (in order)                                                   | unit        |

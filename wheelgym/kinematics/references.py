@@ -4,7 +4,7 @@ Every reference is a planar curve ``p(s)`` traversed by a time law ``s(t)``. Wit
 tangent to the path (the default) the body twist is ``(v, 0, kappa v)`` with ``v = |p_s| sdot``
 and the curvature ``kappa``, so nonholonomic robots can follow it (``vy = 0``); with a fixed
 heading (``heading=<float>``, holonomic robots only) the twist is the world velocity rotated
-into the body frame (physics.md section 0).
+into the body frame (docs/physics/conventions.md).
 
 | output       | shape     | entries                   | units                 |
 |--------------|-----------|---------------------------|-----------------------|
@@ -75,7 +75,8 @@ def quintic_scaling(t: np.ndarray, duration: float, total: float = 1.0):
 
     ``t`` is clamped to ``[0, duration]``. Returns ``(s, sdot, sddot, sdddot)``. With
     ``total = 2 pi`` and ``duration = 60`` this is the three-wheel paper's beta(t) of section 5
-    (``a3 = 20 pi / 60^3``, ``a4 = -30 pi / 60^4``, ``a5 = 12 pi / 60^5``; physics.md TW-7).
+    (``a3 = 20 pi / 60^3``, ``a4 = -30 pi / 60^4``, ``a5 = 12 pi / 60^5``;
+    docs/physics/three-wheel.md TW-7).
     """
     # an array of durations broadcasts against t (evaluate_batch)
     T = duration if isinstance(duration, np.ndarray) else float(duration)
@@ -212,7 +213,7 @@ class _CircleCurve(Reference):
 
 
 class QuinticCircle(_CircleCurve):
-    """The three-wheel paper's circle (section 5, physics.md TW-7).
+    """The three-wheel paper's circle (section 5, docs/physics/three-wheel.md TW-7).
 
     Heading ``beta(t) = a3 t^3 + a4 t^4 + a5 t^5`` rises from 0 to 2 pi over ``duration`` with
     zero rate and acceleration at both ends; the platform's x axis stays tangent to a circle of

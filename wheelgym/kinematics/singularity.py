@@ -1,4 +1,5 @@
-"""Singularity analysis of caster robots for a choice of input joints (physics.md TW-2, section 5).
+"""Singularity analysis of caster robots for a choice of input joints (docs/physics/three-wheel.md
+TW-2, docs/physics/caster-robots.md).
 
 Both caster robots have a joint Jacobian ``qdot = J(config) u`` from their model (one
 implementation: :meth:`ThreeWheel.jacobian` of TW-1, :meth:`CasterAGV.jacobian`). Choosing a set

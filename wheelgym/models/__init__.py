@@ -1,4 +1,4 @@
-"""Pure, batched physics models (physics.md). No gymnasium, no pygame, no globals.
+"""Pure, batched physics models (docs/physics/index.md). No gymnasium, no pygame, no globals.
 
 The model modules are imported on first use (PEP 562), so ``gym.make`` of one robot loads
 only that robot's compiled kernels from numba's cache, not every model's.

@@ -188,7 +188,7 @@ class Model:
 
     Attributes:
         state_names: names of the state entries, in order.
-        input_names: names of the input entries (motor order of physics.md).
+        input_names: names of the input entries (motor order of docs/physics/index.md).
         params_type: the frozen parameter dataclass.
         default_sim_dt: physics substep (s) inside RK4's stability region at the defaults.
         default_ctrl_dt: control period (s).

@@ -1,23 +1,27 @@
-"""Differential-drive AGV with a passive trailing caster (physics.md section 5).
+"""Differential-drive AGV with a passive trailing caster (docs/physics/caster-robots.md).
 
 Two driven conventional wheels on a common axle and one passive off-centred caster wheel: the
 2-DOF robot of the caster-singularity paper (its second robot) and of the three-wheel paper's
 reference [10] (Angeles and Saha). The caster's swivel angle ``sigma`` is a state.
 
-Frames. The body origin is the **axle midpoint** (not the centre of mass as in physics.md
-section 0): there the no-skid constraint of the driven wheels reads ``vy = 0``, so the body
+Frames. The body origin is the **axle midpoint** (not the centre of mass as in
+docs/physics/conventions.md): there the no-skid constraint of the driven wheels reads
+``vy = 0``, so the body
 twist is ``u = (v, w)`` (forward speed, yaw rate) and ``(vx, vy, wz) = (v, 0, w)``. The
 platform's centre of mass sits at ``(x_G, 0)`` in B. Wheels: L at ``(0, +c)``, R at
 ``(0, -c)`` (``c`` half the track width), caster steering axis at ``a = (a_x, a_y)``, caster
-wheel centre ``p = a - d e(sigma)``, ``e = (cos sigma, sin sigma)`` (physics.md TW-1).
+wheel centre ``p = a - d e(sigma)``, ``e = (cos sigma, sin sigma)``
+(docs/physics/three-wheel.md TW-1).
 
-Kinematics (physics.md TW-1 with the ``vy`` column dropped; caster-singularity paper (8)-(11)):
+Kinematics (docs/physics/three-wheel.md TW-1 with the ``vy`` column dropped;
+caster-singularity paper (8)-(11)):
 
     g_L = (1, -c),  g_R = (1, c)                      thetadot_L,R = g_L,R . u / r
     g_c = (cos s, a_x sin s - a_y cos s)              thetadot_c   = g_c . u / r_c
     h_c = (-sin s, a_x cos s + a_y sin s)             sigmadot     = h_c . u / d - w
 
-Dynamics (natural orthogonal complement as physics.md TW-3; the twist-shaping map from
+Dynamics (natural orthogonal complement as docs/physics/three-wheel.md TW-3;
+the twist-shaping map from
 ``u`` to the TW-3 body twist is the constant ``(v, w) -> (v, 0, w)``, so its transpose
 removes the lateral constraint force and adds no ``Tdot`` term):
 
@@ -30,7 +34,7 @@ with ``k_w = m_w + I_wy / r^2``, ``k_c = m_c + I_cy / r_c^2``, ``k_cz = I_cz / d
 first term of ``c`` is the platform's centripetal force at its offset centre of mass; the
 driven wheels sit on the axle (``x = 0``) and add none.
 
-Friction (physics.md TW-4 applied to every wheel):
+Friction (docs/physics/three-wheel.md TW-4 applied to every wheel):
 
     Q_f = - sum_{j=L,R} (mu_r N_j sgn_s(g_j . u) + b_drive g_j . u / r^2) g_j
           - (mu_p (N_L + N_R) sgn_s(rho w)) e_w                     (drive-wheel pivot scrub)
@@ -82,7 +86,8 @@ __all__ = ["CasterAGVParams", "CasterAGV"]
 
 @dataclasses.dataclass(frozen=True)
 class CasterAGVParams(Params):
-    """Caster-AGV parameters (physics.md section 5; defaults: a ~23 kg differential-drive AGV).
+    """Caster-AGV parameters (docs/physics/caster-robots.md; defaults: a ~23 kg
+    differential-drive AGV).
 
     | name        | default       | unit      | meaning                                        |
     |-------------|---------------|-----------|------------------------------------------------|
@@ -248,7 +253,7 @@ def _loads_numpy(p: CasterAGVParams, sig: np.ndarray) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- the model
 class CasterAGV(MotorMixin, Model):
-    """Differential-drive AGV with a passive trailing caster (physics.md section 5).
+    """Differential-drive AGV with a passive trailing caster (docs/physics/caster-robots.md).
 
     | index | state   | unit  | meaning                          |   | index | input | unit |
     |-------|---------|-------|----------------------------------|---|-------|-------|------|

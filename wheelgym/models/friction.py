@@ -1,4 +1,4 @@
-"""Smoothed Coulomb friction (physics.md section 0, skid-steer notes), and the fast
+"""Smoothed Coulomb friction (docs/physics/conventions.md, skid-steer notes), and the fast
 branch-free ``atan`` and ``sincos`` that it and the dynamic models' derivatives use.
 
 ``sincos`` and ``atan`` give libm's values to within 2 ulp (tested against ``math``) at about
@@ -83,7 +83,7 @@ def atan(x):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def sgn_s(s, k_s):  # pragma: no cover - compiled
-    """Smoothed sign ``(2/pi) arctan(k_s s)`` (physics.md section 0); in (-1, 1)."""
+    """Smoothed sign ``(2/pi) arctan(k_s s)`` (docs/physics/conventions.md); in (-1, 1)."""
     return TWO_OVER_PI * atan(k_s * s)
 
 

@@ -1,4 +1,4 @@
-"""Kinematic models: unicycle, bicycle, differential drive, Ackermann (physics.md section 4).
+"""Kinematic models: unicycle, bicycle, differential drive, Ackermann (docs/physics/kinematic.md).
 
 The equations and input options are those of the kinematic-model reference (its ``VehicleInputs``
 names); the differential-drive relations are the diff-drive lecture's section 3. Every model has

@@ -3,7 +3,8 @@
 :func:`noc_terms` builds the twist-shaping matrix ``T`` of the robot's seven bodies and the
 products ``T^T M_bodies T`` and ``T^T (M_bodies Tdot + W M_bodies T) u`` of the paper
 (17)-(29) in NumPy. Nothing in the package runs it: the compiled kernels evaluate the closed
-form of physics.md TW-3 (:mod:`wheelgym.models.kernels.three_wheel`), and the tests check that
+form of docs/physics/three-wheel.md TW-3 (:mod:`wheelgym.models.kernels.three_wheel`), and the
+tests check that
 both agree to 1e-12.
 """
 
@@ -26,7 +27,7 @@ def noc_terms(
     """``M`` and ``c`` of TW-3 by the natural orthogonal complement (three-wheel paper (17)-(29)).
 
     Reference derivation in NumPy (not used by the compiled kernel, which evaluates the closed
-    form of physics.md TW-3; the tests check both agree to 1e-12).
+    form of docs/physics/three-wheel.md TW-3; the tests check both agree to 1e-12).
 
     Seven rigid bodies, each with a 6-vector twist ``t = (omega, v)`` at its centre of mass in
     the world frame (paper (17)-(18)): 0 the platform (mass ``m_b``, yaw inertia ``I_b``),

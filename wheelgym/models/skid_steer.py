@@ -1,4 +1,4 @@
-"""Four-wheel skid-steer robot, Kozlowski-Pazderski model (physics.md section 3).
+"""Four-wheel skid-steer robot, Kozlowski-Pazderski model (docs/physics/skid-steer.md).
 
 State ``x = (x, y, yaw, vx, wz)`` (m, m, rad, m/s, rad/s); input ``u = (tau_1, tau_2, tau_3,
 tau_4)`` (N·m), wheels 1 rear-left, 2 front-left, 3 front-right, 4 rear-right. The lateral
@@ -47,7 +47,7 @@ __all__ = ["SkidSteerParams", "SkidSteer"]
 
 @dataclasses.dataclass(frozen=True)
 class SkidSteerParams(Params):
-    """Skid-steer parameters (physics.md section 3; defaults: a Clearpath Husky-like robot).
+    """Skid-steer parameters (docs/physics/skid-steer.md; defaults: a Clearpath Husky-like robot).
 
     | name     | default | unit  | meaning                                                  |
     |----------|---------|-------|----------------------------------------------------------|
@@ -136,7 +136,7 @@ class SkidSteerParams(Params):
     # Derived quantities -------------------------------------------------------------
     @property
     def wheel_positions(self) -> np.ndarray:
-        """Wheel contact points ``(x_i, y_i)`` in B, wheels 1..4 (physics.md section 3)."""
+        """Wheel contact points ``(x_i, y_i)`` in B, wheels 1..4 (docs/physics/skid-steer.md)."""
         return np.array([[-self.a, self.c], [self.b, self.c], [self.b, -self.c],
                          [-self.a, -self.c]])
 
@@ -150,7 +150,7 @@ class SkidSteerParams(Params):
 
 # ---------------------------------------------------------------------------- the model
 class SkidSteer(MotorMixin, Model):
-    """Four-wheel skid-steer robot (Kozlowski-Pazderski, physics.md section 3).
+    """Four-wheel skid-steer robot (Kozlowski-Pazderski, docs/physics/skid-steer.md).
 
     | index | state | unit  |   | index | input | unit |
     |-------|-------|-------|---|-------|-------|------|

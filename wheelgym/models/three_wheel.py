@@ -1,4 +1,5 @@
-"""Three-wheel redundantly actuated robot with off-centred steerable wheels (physics.md section 2).
+"""Three-wheel redundantly actuated robot with off-centred steerable wheels
+(docs/physics/three-wheel.md).
 
 A platform carries three caster modules (wheel 1 rear-left, 2 rear-right, 3 front). Each module
 has a steering motor at its vertical axis ``A_i`` and a drive motor on the wheel axle, so six
@@ -7,7 +8,8 @@ motors drive three degrees of freedom (force redundancy, three-wheel paper secti
 State ``x = (x, y, yaw, vx, vy, wz, psi_1, psi_2, psi_3, theta_1, theta_2, theta_3)`` (TW-5);
 input ``tau = (drive_1, drive_2, drive_3, steer_1, steer_2, steer_3)`` (N·m, motor order).
 
-Dynamics in the body twist ``u = (vx, vy, wz)`` (physics.md TW-3, three-wheel paper (26)):
+Dynamics in the body twist ``u = (vx, vy, wz)`` (docs/physics/three-wheel.md TW-3,
+three-wheel paper (26)):
 
     M(psi) udot + c(psi, u) = J(psi)^T tau + Q_f(psi, u)
 
@@ -64,7 +66,8 @@ def _cross2(a: np.ndarray, b: np.ndarray) -> float:
 
 @dataclasses.dataclass(frozen=True)
 class ThreeWheelParams(Params):
-    """Three-wheel robot parameters (physics.md section 2; defaults: a research AGV of ~25 kg).
+    """Three-wheel robot parameters (docs/physics/three-wheel.md; defaults: a research AGV
+    of ~25 kg).
 
     | name          | default | unit      | meaning                                      |
     |---------------|---------|-----------|----------------------------------------------|
@@ -255,7 +258,8 @@ class ThreeWheelParams(Params):
 
 # ---------------------------------------------------------------------------- the model
 class ThreeWheel(MotorMixin, Model):
-    """Three-wheel redundantly actuated robot with steerable off-centred wheels (physics.md 2).
+    """Three-wheel redundantly actuated robot with steerable off-centred wheels
+    (docs/physics/three-wheel.md).
 
     | index | state   | unit  |   | index | input   | unit |
     |-------|---------|-------|---|-------|---------|------|

@@ -1,4 +1,5 @@
-"""CasterAGV for the environments: compiled step kernel and geometry (physics.md section 5)."""
+"""CasterAGV for the environments: compiled step kernel and geometry
+(docs/physics/caster-robots.md)."""
 
 from __future__ import annotations
 

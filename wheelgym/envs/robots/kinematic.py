@@ -1,4 +1,4 @@
-"""Kinematic robots for the environments (physics.md section 4): one kernel for all four.
+"""Kinematic robots for the environments (docs/physics/kinematic.md): one kernel for all four.
 
 They have no motors: the action is the model's velocity input (scaled onto its bounds), the
 joint rates are reported as empty, and the motor work stays 0.

@@ -1,4 +1,5 @@
-"""SkidSteer for the environments: compiled step kernel and geometry (physics.md section 3)."""
+"""SkidSteer for the environments: compiled step kernel and geometry
+(docs/physics/skid-steer.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""ThreeWheel for the environments: compiled step kernel and geometry (physics.md section 2)."""
+"""ThreeWheel for the environments: compiled step kernel and geometry
+(docs/physics/three-wheel.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Compiled pieces of the caster AGV (physics.md section 5), for every layer's kernels.
+"""Compiled pieces of the caster AGV (docs/physics/caster-robots.md), for every layer's kernels.
 
 The model (:class:`wheelgym.models.CasterAGV`), the environments' step kernel and the
 controllers inline these functions. They read the packed parameter array ``p`` of
@@ -69,7 +69,7 @@ NU = 2  # input size
 # ---------------------------------------------------------------------------- compiled pieces
 @njit(cache=True, inline="always")
 def gh(cs, sn, p):  # pragma: no cover - compiled
-    """Caster ``g_c``, ``h_c`` (physics.md TW-1 with the vy column dropped)."""
+    """Caster ``g_c``, ``h_c`` (docs/physics/three-wheel.md TW-1 with the vy column dropped)."""
     ax = p[P_AX]
     ay = p[P_AY]
     return cs, ax * sn - ay * cs, -sn, ax * cs + ay * sn
@@ -105,7 +105,8 @@ def mass(gc0, gc1, hc0, hc1, p):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def bias(gc0, gc1, hc0, hc1, v, w, p):  # pragma: no cover - compiled
-    """Coriolis/centripetal term ``c(sigma, u)`` (module docstring, physics.md TW-3)."""
+    """Coriolis/centripetal term ``c(sigma, u)`` (module docstring,
+    docs/physics/three-wheel.md TW-3)."""
     gu = gc0 * v + gc1 * w
     hu = hc0 * v + hc1 * w
     sd = hu * p[P_INVD] - w  # TW-1 swivel rate
@@ -116,7 +117,8 @@ def bias(gc0, gc1, hc0, hc1, v, w, p):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p):  # pragma: no cover - compiled
-    """Generalized friction ``Q_f(sigma, u)`` (module docstring, physics.md TW-4)."""
+    """Generalized friction ``Q_f(sigma, u)`` (module docstring,
+    docs/physics/three-wheel.md TW-4)."""
     c = p[P_C]
     ks = p[P_KS]
     invd = p[P_INVD]
@@ -166,7 +168,7 @@ def _deriv_one(x, u, p, out, applied):  # pragma: no cover - compiled
     w = x[4]
     cs = math.cos(x[5])
     sn = math.sin(x[5])
-    out[0] = math.cos(yaw) * v  # physics.md section 0 with vy = 0
+    out[0] = math.cos(yaw) * v  # docs/physics/conventions.md with vy = 0
     out[1] = math.sin(yaw) * v
     out[2] = w
     gc0, gc1, hc0, hc1 = gh(cs, sn, p)

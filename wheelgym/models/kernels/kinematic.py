@@ -1,4 +1,4 @@
-"""Compiled pieces of the kinematic models (physics.md section 4), for every layer's kernels.
+"""Compiled pieces of the kinematic models (docs/physics/kinematic.md), for every layer's kernels.
 
 One set of functions serves Unicycle, Bicycle, DifferentialDrive and Ackermann: the packed
 parameter array (:meth:`UnicycleParams.pack` ...) holds the model kind and input mode at

@@ -1,4 +1,4 @@
-"""Compiled pieces of the skid-steer robot (physics.md section 3), for every layer's kernels.
+"""Compiled pieces of the skid-steer robot (docs/physics/skid-steer.md), for every layer's kernels.
 
 The model (:class:`wheelgym.models.SkidSteer`), the environments' step kernel and the
 controllers inline these functions. They read the packed parameter array ``p`` of
@@ -124,7 +124,7 @@ def _deriv(x, u, p, applied):  # pragma: no cover - compiled
     #   Cbar eta = m x_icr (wz wz, -wz vx), Bbar = (1/r) [[1, 1], [-c, c]]
     f0 = (tau_l + tau_r) / p[P_R] - m * xicr * wz * wz - r0
     f1 = p[P_C] * (tau_r - tau_l) / p[P_R] + m * xicr * wz * vx - r1
-    # physics.md section 0 (three-wheel paper (15)-(16)), then SS-3
+    # docs/physics/conventions.md (three-wheel paper (15)-(16)), then SS-3
     return (cy * vx - sy * vy, sy * vx + cy * vy, wz, f0 / m, f1 / (m * xicr * xicr + p[P_I]))
 
 

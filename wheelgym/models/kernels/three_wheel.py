@@ -1,4 +1,5 @@
-"""Compiled pieces of the three-wheel robot (physics.md section 2), for every layer's kernels.
+"""Compiled pieces of the three-wheel robot (docs/physics/three-wheel.md), for every layer's
+kernels.
 
 The model (:class:`wheelgym.models.ThreeWheel`), the environments' step kernel and the
 controllers all inline these functions, so they share one set of formulas and bits. Every
@@ -98,7 +99,8 @@ def trig(psi1, psi2, psi3):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def gh(cs, i, p):  # pragma: no cover - compiled
-    """``g_i`` and ``h_i`` of physics.md TW-1 (caster-singularity paper (8)-(11))."""
+    """``g_i`` and ``h_i`` of docs/physics/three-wheel.md TW-1
+    (caster-singularity paper (8)-(11))."""
     c = cs[2 * i]
     s = cs[2 * i + 1]
     ax = p[P_A1X + 2 * i]
@@ -190,7 +192,7 @@ def jacobian_rows(g, h, p):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def mass(cs, p):  # pragma: no cover - compiled
-    """Upper triangle (m00, m01, m02, m11, m12, m22) of M(psi), physics.md TW-3."""
+    """Upper triangle (m00, m01, m02, m11, m12, m22) of M(psi), docs/physics/three-wheel.md TW-3."""
     m = (p[P_M0], p[P_M0 + 1], p[P_M0 + 2], p[P_M0 + 3], p[P_M0 + 4], p[P_M0 + 5])  # M_0
     for i in range(3):
         g, h = gh(cs, i, p)
@@ -201,7 +203,8 @@ def mass(cs, p):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
-    """Coriolis/centripetal term c(psi, u) of physics.md TW-3 (three-wheel paper (26))."""
+    """Coriolis/centripetal term c(psi, u) of docs/physics/three-wheel.md TW-3
+    (three-wheel paper (26))."""
     c0 = -p[P_MB] * wz * vy  # platform m_b (-wz vy, wz vx, 0)
     c1 = p[P_MB] * wz * vx
     c2 = 0.0
@@ -219,7 +222,7 @@ def bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def friction(cs, vx, vy, wz, p):  # pragma: no cover - compiled
-    """Generalized friction Q_f(psi, u) of physics.md TW-4."""
+    """Generalized friction Q_f(psi, u) of docs/physics/three-wheel.md TW-4."""
     n = loads(cs, p)
     q0 = 0.0
     q1 = 0.0
@@ -319,7 +322,7 @@ def _deriv(x, u, p, applied):  # pragma: no cover - compiled
     m, f, psid2, thd2 = _module_terms(cs, 1, n[1], vx, vy, wz, u[1], u[4], p, m, f, applied)
     m, f, psid3, thd3 = _module_terms(cs, 2, n[2], vx, vy, wz, u[2], u[5], p, m, f, applied)
     a0, a1, a2 = solve3(m, f[0], f[1], f[2])
-    # physics.md section 0 (three-wheel paper (15)-(16)), TW-3 and the TW-1 joint rates
+    # docs/physics/conventions.md (three-wheel paper (15)-(16)), TW-3 and the TW-1 joint rates
     return (fma(cy, vx, -(sy * vy)), fma(sy, vx, cy * vy), wz, a0, a1, a2,
             psid1, psid2, psid3, thd1, thd2, thd3)
 
