@@ -64,7 +64,7 @@ def md(text: str, up: str = "..") -> str:
     become links, relative to a page ``up`` below docs/."""
     text = re.sub(r":(?:class|func|meth|mod|attr|data):`~?([^`]+)`", r"`\1`", text)
     text = re.sub(r"``([^`]+)``", r"`\1`", text)
-    text = re.sub(r"(?<![\w/`\[(])docs/physics/([\w-]+)\.md",
+    text = re.sub(r"(?<![\w/`\[])docs/physics/([\w-]+)\.md",
                   rf"[docs/physics/\1.md]({up}/physics/\1.md)", text)
     return join_wrapped_rows(text)
 
