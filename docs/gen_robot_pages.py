@@ -214,12 +214,17 @@ def robot_page(robot: str) -> str:
               "Sizes and entries here:", "",
               "| task | size | entries |", "|---|---|---|"]
     for task in TASKS:
-        env = gym.make(f"wheelgym/{robot}-v0", task=task)
-        names, _ = env.unwrapped.core.task.obs_layout()
-        assert env.observation_space.shape == (len(names),), (robot, task)
-        short = ", ".join(f"`{n}`" for n in _compress(names))
-        lines.append(f"| {task} | {len(names)} | {short} |")
-        env.close()
+        layouts = {}
+        for i in ids:
+            env = gym.make(i, task=task)
+            names, _ = env.unwrapped.core.task.obs_layout()
+            assert env.observation_space.shape == (len(names),), (i, task)
+            layouts.setdefault(tuple(names), []).append(i.rsplit("-", 1)[1])
+            env.close()
+        for names, versions in layouts.items():
+            which = task if len(layouts) == 1 else f"{task} ({', '.join(versions)})"
+            short = ", ".join(f"`{n}`" for n in _compress(list(names)))
+            lines.append(f"| {which} | {len(names)} | {short} |")
     feats = ", ".join(f"`{n}`" for n in spec.feat_names) or "none"
     lines += ["", f"Robot features (after the twist): {feats}. Speed limits (an episode ends "
               f"beyond them): {spec.v_max:g} m/s, {spec.w_max:g} rad/s. Footprint radius "
@@ -316,6 +321,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--gifs", action="store_true", help="also render the baseline GIFs")
     a = ap.parse_args(argv)
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    import warnings
+
+    warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)
     stale = []
     for path, text in pages().items():
         old = path.read_text(encoding="utf-8") if path.exists() else None
