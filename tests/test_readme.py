@@ -58,24 +58,6 @@ def test_readme_is_one_screen_and_a_little_more() -> None:
     assert len(lines) <= 200, f"README.md has {len(lines)} lines (at most 200: the rest is docs/)"
 
 
-def test_readme_results_summary_counts_the_csv() -> None:
-    """The summary between the README's results-summary markers says how many configs of the
-    committed CSV meet their targets (the targets column of ``wheelgym benchmark --table``)."""
-    from wheelgym.agents.benchmark import DEFAULT_CSV, format_table, read_rows
-
-    text = README.read_text(encoding="utf-8")
-    m = re.search(r"<!-- results-summary: begin -->(.*?)<!-- results-summary: end -->", text,
-                  flags=re.DOTALL)
-    assert m, "README.md has no results-summary markers"
-    table = format_table(read_rows(README.parent / DEFAULT_CSV))
-    rows = [ln for ln in table.splitlines()
-            if ln.startswith("| ") and not ln.startswith(("| config", "|---"))]
-    met = sum(ln.rstrip().endswith("| met |") for ln in rows)
-    counts = re.search(r"(\d+) of (\d+) configs", m.group(1))
-    assert counts, m.group(1)
-    assert (int(counts.group(1)), int(counts.group(2))) == (met, len(rows))
-
-
 def test_readme_links_resolve() -> None:
     """Every relative link and picture of the README (into docs/ mostly) names a file of the
     repository."""
