@@ -114,8 +114,10 @@ def test_distillation_takes_the_internal_force_out_and_keeps_the_motion():
              epochs=20, seed=0)
     mean_before = venv.obs_rms.mean.copy()
     teacher = {k: v.clone() for k, v in model.policy.state_dict().items()}
-    # the tiny network needs many passes (and a milder weight) to learn the projection
-    fit = distill_internal_force(model, 16_384, rounds=2, weight=10.0, epochs=100, seed=0)
+    # the tiny network needs many passes (and a milder weight) to learn the projection: with 100
+    # its generalized-force error was 0.41 of the teacher's on an AVX-512 CPU (under the 0.35
+    # below only with AVX2 code), with 300 it is 0.18 there
+    fit = distill_internal_force(model, 16_384, rounds=2, weight=10.0, epochs=300, seed=0)
     assert venv.training and np.array_equal(venv.obs_rms.mean, mean_before)  # frozen, restored
     assert fit["steps"] == 16_384 and len(fit["rounds"]) == 2 and fit["weight"] == 10.0
     assert fit["rounds"][0]["force_before"] > 0.02, fit
