@@ -1,14 +1,35 @@
 """The client tests need the optional ``clients`` extra (``pip install -e .[clients]``; the
 Makefile's venv has it). Without it they are skipped, except under CI (``CI`` set), where a
-missing library is an install step gone missing and fails the run."""
+missing library is an install step gone missing and fails the run.
+
+TorchRL and skrl switch torch's distribution argument checks off for the whole process when
+they are imported; tests/conftest.py turns them back on before every test, and the client tests
+run with them off, as those libraries set them."""
 
 from __future__ import annotations
 
 import importlib
 import os
+from collections.abc import Iterator
 from types import ModuleType
 
 import pytest
+
+
+def _validate_args() -> bool | None:
+    """torch's default for distribution argument checks (None: torch not installed)."""
+    try:
+        from torch.distributions import Distribution
+    except ImportError:
+        return None
+    return Distribution._validate_args
+
+
+def _set_validate_args(value: bool | None) -> None:
+    if value is not None:
+        from torch.distributions import Distribution
+
+        Distribution.set_default_validate_args(value)
 
 
 def require(module: str, name: str) -> ModuleType:
@@ -17,3 +38,13 @@ def require(module: str, name: str) -> ModuleType:
         return importlib.import_module(module)
     return pytest.importorskip(module, reason=f"{name} is in the optional 'clients' extra "
                                               "(pip install -e .[clients])")
+
+
+@pytest.fixture(autouse=True)
+def _client_validate_args() -> Iterator[None]:
+    """Each client test with torch's distribution checks off, as TorchRL and skrl set them;
+    the process's setting restored after it."""
+    before = _validate_args()
+    _set_validate_args(False if before is not None else None)
+    yield
+    _set_validate_args(before)

@@ -363,18 +363,10 @@ def run_episodes_vector(venv: Any, policy: Any, seeds: Sequence[int], *,
     motors = spec is None or getattr(spec, "n_motor", 1) > 0
     dt = float(getattr(venv, "dt", 1.0) or 1.0)
     alive = np.ones(n, dtype=bool)
-    ret = np.zeros(n)
-    length = np.zeros(n, dtype=np.int64)
-    err2 = np.zeros(n)
-    n_err = np.zeros(n, dtype=np.int64)
-    peak = np.full(n, -np.inf)
-    f_sum = np.zeros(n)
-    n_force = np.zeros(n, dtype=np.int64)
-    n_sat = np.zeros(n, dtype=np.int64)
-    energy = np.full(n, np.nan)
-    success = np.zeros(n, dtype=bool)
-    failure = np.zeros(n, dtype=bool)
-    ended_by_task = np.zeros(n, dtype=bool)
+    ret, err2, f_sum = (np.zeros(n) for _ in range(3))  # return, squared error, force sums
+    length, n_err, n_force, n_sat = (np.zeros(n, dtype=np.int64) for _ in range(4))  # counts
+    success, failure, ended_by_task = (np.zeros(n, dtype=bool) for _ in range(3))
+    peak, energy = np.full(n, -np.inf), np.full(n, np.nan)
     keys: set[str] = set()
     state = None
     start = np.ones(n, dtype=bool)

@@ -260,12 +260,9 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
                         if cm not in envs:
                             envs[cm] = _make_venv(config, episodes, pert, cm)
                         venv = envs[cm]
-                        if pol == "agent":
-                            policy = agent
-                        elif pol == "random":
-                            policy = RandomPolicy(venv.action_space)
-                        else:
-                            policy = baseline(venv, model=cm)
+                        policy = (agent if pol == "agent" else
+                                  RandomPolicy(venv.action_space) if pol == "random" else
+                                  baseline(venv, model=cm))
                         eps = run_episodes_vector(venv, policy, seeds)
                         metrics = ("ret", *applicable_metrics(venv))
                         status = "ok"
