@@ -54,7 +54,6 @@ myst_heading_anchors = 3  # [text](page.md#a-heading) links to headings up to le
 
 html_theme = "furo"
 html_title = f"wheelgym {release}"
-html_static_path = ["_static"]
 html_logo = None
 html_theme_options = {"navigation_with_keys": True}
 
