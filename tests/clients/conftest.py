@@ -10,26 +10,11 @@ from __future__ import annotations
 
 import importlib
 import os
+import sys
 from collections.abc import Iterator
 from types import ModuleType
 
 import pytest
-
-
-def _validate_args() -> bool | None:
-    """torch's default for distribution argument checks (None: torch not installed)."""
-    try:
-        from torch.distributions import Distribution
-    except ImportError:
-        return None
-    return Distribution._validate_args
-
-
-def _set_validate_args(value: bool | None) -> None:
-    if value is not None:
-        from torch.distributions import Distribution
-
-        Distribution.set_default_validate_args(value)
 
 
 def require(module: str, name: str) -> ModuleType:
@@ -42,9 +27,9 @@ def require(module: str, name: str) -> ModuleType:
 
 @pytest.fixture(autouse=True)
 def _client_validate_args() -> Iterator[None]:
-    """Each client test with torch's distribution checks off, as TorchRL and skrl set them;
-    the process's setting restored after it."""
-    before = _validate_args()
-    _set_validate_args(False if before is not None else None)
+    """Each client test with torch's distribution checks off, as TorchRL and skrl set them
+    (tests/conftest.py turns them on again before the next test)."""
+    dist = sys.modules.get("torch.distributions")
+    if dist is not None:
+        dist.Distribution.set_default_validate_args(False)
     yield
-    _set_validate_args(before)
