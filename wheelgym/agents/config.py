@@ -524,30 +524,30 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
 class TrainConfig:
     """A validated training configuration.
 
-    ============== ============================================================================
-    field          meaning
-    ============== ============================================================================
-    env_id         registered Gymnasium id, e.g. ``"wheelgym/ThreeWheel-v0"``
-    algo           one of :data:`ALGOS`
-    env_kwargs     keyword arguments of ``gym.make`` (task, action_mode, ...)
-    hyperparams    algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
-                   values as in the file; ``policy_kwargs.mean_bound`` selects
-                   :class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`)
-    n_envs         parallel environments in training
-    n_timesteps    total environment steps of the ``rl`` stage
-    normalize      ``None`` (no ``VecNormalize``) or its keyword arguments
-    noise          ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
-    seed           seed of the algorithm and of the training environments
-    eval_freq      environment steps between evaluations during training (0: none)
-    eval_episodes  episodes per evaluation
+    =============== ============================================================================
+    field           meaning
+    =============== ============================================================================
+    env_id          registered Gymnasium id, e.g. ``"wheelgym/ThreeWheel-v0"``
+    algo            one of :data:`ALGOS`
+    env_kwargs      keyword arguments of ``gym.make`` (task, action_mode, ...)
+    hyperparams     algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
+                    values as in the file; ``policy_kwargs.mean_bound`` selects
+                    :class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`)
+    n_envs          parallel environments in training
+    n_timesteps     total environment steps of the ``rl`` stage
+    normalize       ``None`` (no ``VecNormalize``) or its keyword arguments
+    noise           ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
+    seed            seed of the algorithm and of the training environments
+    eval_freq       environment steps between evaluations during training (0: none)
+    eval_episodes   episodes per evaluation
     checkpoint_freq environment steps between checkpoints (0: none)
-    vec_env        ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
-    device         torch device
-    torch_threads  ``torch.set_num_threads`` value (1 is fastest for small MLPs)
-    pipeline       the stages as written (:mod:`wheelgym.agents.pipeline`); ``()``: none
-                   written, plain RL (:attr:`stages` is then one ``rl`` stage)
-    source         the file it came from (for messages), or ``"<dict>"``
-    ============== ============================================================================
+    vec_env         ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
+    device          torch device
+    torch_threads   ``torch.set_num_threads`` value (1 is fastest for small MLPs)
+    pipeline        the stages as written (:mod:`wheelgym.agents.pipeline`); ``()``: none
+                    written, plain RL (:attr:`stages` is then one ``rl`` stage)
+    source          the file it came from (for messages), or ``"<dict>"``
+    =============== ============================================================================
     """
 
     env_id: str
