@@ -29,33 +29,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-__all__ = ["OccupancyGrid", "grid_from_world", "inflate", "k_point_gap"]
+from wheelgym.world import k_surface_dist
 
-
-@njit(cache=True)
-def k_point_gap(pts, circles, segs, radius, out):  # pragma: no cover - compiled
-    """``out[k]``: distance (m) from ``pts[k]`` to the nearest circle surface or segment,
-    minus ``radius`` (a point inside a circle has a negative circle distance)."""
-    for k in range(pts.shape[0]):
-        px = pts[k, 0]
-        py = pts[k, 1]
-        best = np.inf
-        for j in range(circles.shape[0]):
-            d = math.hypot(px - circles[j, 0], py - circles[j, 1]) - circles[j, 2]
-            if d < best:
-                best = d
-        for j in range(segs.shape[0]):
-            sx = segs[j, 0]
-            sy = segs[j, 1]
-            ex = segs[j, 2] - sx
-            ey = segs[j, 3] - sy
-            ll = ex * ex + ey * ey
-            u = ((px - sx) * ex + (py - sy) * ey) / ll if ll > 0.0 else 0.0
-            u = min(max(u, 0.0), 1.0)
-            d = math.hypot(px - sx - u * ex, py - sy - u * ey)
-            if d < best:
-                best = d
-        out[k] = best - radius
+__all__ = ["OccupancyGrid", "grid_from_world", "inflate"]
 
 
 @njit(cache=True)
@@ -163,7 +139,8 @@ def grid_from_world(world: Any, arena: Any, radius: float, res: float = 0.05
     gap = np.empty(len(pts))
     circles = np.ascontiguousarray(np.asarray(world.circles, dtype=np.float64).reshape(-1, 3))
     segs = np.ascontiguousarray(np.asarray(world.segments, dtype=np.float64).reshape(-1, 4))
-    k_point_gap(pts, circles, segs, radius, gap)
+    k_surface_dist(pts, circles, segs, gap)
+    gap -= radius
     if hasattr(arena, "inside"):
         solid = arena.inside(pts)
     else:  # the walls, then four segments per box (wheelgym.world.Arena.generate)

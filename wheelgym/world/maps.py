@@ -77,8 +77,8 @@ from wheelgym import safe_yaml
 from wheelgym.safe_yaml import one_line
 from wheelgym.world.arena import World
 
-__all__ = ["MAPS", "MapArena", "grid_edges", "grid_rects", "load_map", "occupancy", "read_netpbm",
-           "write_pgm"]
+__all__ = ["MAPS", "MapArena", "grid_edges", "grid_rects", "k_surface_dist", "load_map",
+           "occupancy", "read_netpbm", "write_pgm"]
 
 #: Shipped maps: name -> YAML file (``wheelgym/world/mapdata/``, made by ``make_maps.py`` there).
 MAPS: dict[str, Path] = {
@@ -358,8 +358,9 @@ def grid_rects(solid: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _k_surface_dist(pts, circles, segs, out):  # pragma: no cover - compiled
-    """``k_clearance``'s distance for many points against one geometry: ``out (P,)`` (m)."""
+def k_surface_dist(pts, circles, segs, out):  # pragma: no cover - compiled
+    """``k_clearance``'s distance for many points against one geometry: ``out (P,)`` (m), from
+    each point to the nearest circle surface (negative inside a circle) or segment."""
     for i in range(pts.shape[0]):
         px = pts[i, 0]
         py = pts[i, 1]
@@ -543,7 +544,7 @@ class MapArena:
         p = np.asarray(points, dtype=np.float64)
         flat = np.ascontiguousarray(p.reshape(-1, 2))
         out = np.empty(len(flat))
-        _k_surface_dist(flat, np.ascontiguousarray(self.circles),
+        k_surface_dist(flat, np.ascontiguousarray(self.circles),
                         np.ascontiguousarray(self.segments), out)
         return out.reshape(p.shape[:-1])
 
