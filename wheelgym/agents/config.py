@@ -578,7 +578,13 @@ class TrainConfig:
 
     @property
     def name(self) -> str:
-        """Short name ``<Robot>-<task>-<action_mode>-<algo>`` used for run folders."""
+        """Short name used for run folders and study names: the config file's stem and the
+        algorithm (``ThreeWheel-navigate-warehouse-velocity-ppo``), so that the map, robust and
+        HER variants of a config get folders of their own; ``<Robot>-<task>-<action_mode>-<algo>``
+        for a config not read from a file (or from a run folder's ``config.yml``)."""
+        src = Path(self.source)
+        if src.suffix in (".yml", ".yaml") and src.stem != "config":
+            return f"{src.stem}-{self.algo}"
         robot = self.env_id.split("/")[-1].rsplit("-v", 1)[0]
         parts = [robot, self.task, self.action_mode, self.algo]
         return "-".join(str(p) for p in parts if p)
