@@ -71,6 +71,7 @@ from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 __all__ = [
     "WheelVectorEnv",
     "info_row",
+    "adapter_base",
     "REWARD_TERMS",
     "ThreeWheelVectorEnv",
     "SkidSteerVectorEnv",
@@ -119,6 +120,26 @@ def info_row(info: dict[str, Any], i: int, skip: Sequence[str] = ()) -> dict[str
         else:
             out[k] = v[i].copy()
     return out
+
+
+def adapter_base(venv: Any, mode: AutoresetMode, client: str, info_keys: Sequence[str] | str
+                 ) -> tuple[WheelVectorEnv, tuple[str, ...] | str]:
+    """The checks every client adapter over the native vector env makes (``vector/sb3.py``,
+    ``vector/tianshou.py``): the unwrapped :class:`WheelVectorEnv` of ``venv``, which must run
+    the autoreset ``mode`` the ``client`` expects, and ``info_keys`` as ``"all"`` or a tuple."""
+    base = getattr(venv, "unwrapped", venv)
+    if not isinstance(base, WheelVectorEnv):
+        raise TypeError(f"venv must be a wheelgym WheelVectorEnv, got {type(venv).__name__}")
+    got = venv.metadata.get("autoreset_mode")
+    if got is not mode:
+        raise ValueError(f"{client}: make the env with autoreset_mode=AutoresetMode."
+                         f"{mode.name} (got {got!r})")
+    if isinstance(info_keys, str):
+        if info_keys != "all":
+            raise ValueError(f"info_keys must be 'all' or a tuple of info keys, "
+                             f"got {info_keys!r}")
+        return base, info_keys
+    return base, tuple(info_keys)
 
 
 def _masked(arr: np.ndarray, mask: np.ndarray) -> np.ndarray:

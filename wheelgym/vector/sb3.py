@@ -34,7 +34,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvStepReturn
 
 from wheelgym.tasks.tasks import HER_INFO_KEYS
-from wheelgym.vector.env import WheelVectorEnv, info_row
+from wheelgym.vector.env import WheelVectorEnv, adapter_base, info_row
 
 __all__ = ["SB3VecEnv", "make_sb3_vec_env"]
 
@@ -59,21 +59,10 @@ class SB3VecEnv(VecEnv):
     """
 
     def __init__(self, venv: WheelVectorEnv, info_keys: Sequence[str] | str = ()) -> None:
-        base = getattr(venv, "unwrapped", venv)
-        if not isinstance(base, WheelVectorEnv):
-            raise TypeError(f"venv must be a wheelgym WheelVectorEnv, got {type(venv).__name__}")
-        if venv.metadata.get("autoreset_mode") is not AutoresetMode.SAME_STEP:
-            raise ValueError(
-                "SB3 expects same-step autoreset: make the env with autoreset_mode="
-                f"AutoresetMode.SAME_STEP (got {venv.metadata.get('autoreset_mode')!r})")
-        if isinstance(info_keys, str):
-            if info_keys != "all":
-                raise ValueError(f"info_keys must be 'all' or a tuple of info keys, "
-                                 f"got {info_keys!r}")
-        else:
-            info_keys = tuple(info_keys)
-            if getattr(base, "goal_conditioned", False):  # what compute_reward reads
-                info_keys += tuple(k for k in HER_INFO_KEYS if k not in info_keys)
+        base, info_keys = adapter_base(venv, AutoresetMode.SAME_STEP, "SB3 expects same-step "
+                                       "autoreset", info_keys)
+        if not isinstance(info_keys, str) and getattr(base, "goal_conditioned", False):
+            info_keys += tuple(k for k in HER_INFO_KEYS if k not in info_keys)  # compute_reward
         self.venv = venv
         self.info_keys = info_keys
         self._actions: np.ndarray | None = None

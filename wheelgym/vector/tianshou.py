@@ -49,7 +49,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from tianshou.env import BaseVectorEnv
 
-from wheelgym.vector.env import WheelVectorEnv, info_row
+from wheelgym.vector.env import WheelVectorEnv, adapter_base, info_row
 
 __all__ = ["TianshouVectorEnv", "make_tianshou_vec_env"]
 
@@ -70,19 +70,8 @@ class TianshouVectorEnv(BaseVectorEnv):
 
     def __init__(self, venv: WheelVectorEnv,
                  info_keys: Sequence[str] | str = "all") -> None:  # (no workers: not super())
-        base = getattr(venv, "unwrapped", venv)
-        if not isinstance(base, WheelVectorEnv):
-            raise TypeError(f"venv must be a wheelgym WheelVectorEnv, got {type(venv).__name__}")
-        if venv.metadata.get("autoreset_mode") is not AutoresetMode.DISABLED:
-            raise ValueError(
-                "Tianshou resets the sub-envs itself: make the env with autoreset_mode="
-                f"AutoresetMode.DISABLED (got {venv.metadata.get('autoreset_mode')!r})")
-        if isinstance(info_keys, str):
-            if info_keys != "all":
-                raise ValueError(f"info_keys must be 'all' or a tuple of info keys, "
-                                 f"got {info_keys!r}")
-        else:
-            info_keys = tuple(info_keys)
+        base, info_keys = adapter_base(venv, AutoresetMode.DISABLED, "Tianshou resets the "
+                                       "sub-envs itself", info_keys)
         N = venv.num_envs
         self.venv = venv
         self.info_keys = info_keys
