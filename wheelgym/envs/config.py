@@ -32,7 +32,7 @@ from wheelgym.registration import DEFAULT_HORIZON, VERSIONS
 from wheelgym.tasks.tasks import TASKS
 
 __all__ = ["EnvConfig", "RENDER_MODES", "MAX_CTRL_DT", "MAX_SUBSTEPS", "MOTORS",
-           "CONTROLLER_MODELS", "signature_with"]
+           "CONTROLLER_MODELS", "MAX_ACTION_HISTORY", "signature_with"]
 
 #: Render modes of the single environment (the vector env offers ``rgb_array`` only).
 RENDER_MODES = ("human", "rgb_array")
@@ -48,6 +48,9 @@ MAX_SUBSTEPS = 10_000
 MOTORS = ("ideal", "dc")
 #: Models the velocity mode's twist controller may believe in (``controller_model``).
 CONTROLLER_MODELS = ("nominal", "true")
+#: Most past actions ``action_history`` may append to the observation (twice the `hard`
+#: perturbation level's 4-step delay).
+MAX_ACTION_HISTORY = 8
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 
@@ -238,6 +241,8 @@ class EnvConfig:
         perturbation: None, a :class:`~wheelgym.envs.perturbation.Perturbation`, a dict of
             its fields or a level name (``"easy"``, ``"medium"``, ``"hard"``); stored as a
             ``Perturbation`` (``wheelgym.envs.perturbation``).
+        action_history: the last ``k`` actions the policy sent (0 to
+            :data:`MAX_ACTION_HISTORY`; 0: none) appended to the observation, newest first.
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -262,6 +267,7 @@ class EnvConfig:
     waypoint_hint: bool = False
     controller_model: str = "nominal"
     perturbation: Perturbation | Mapping[str, Any] | str | None = None
+    action_history: int = 0
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -342,6 +348,13 @@ class EnvConfig:
         if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
             raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
                              "(version=1) only")
+        k = self.action_history
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise TypeError(f"action_history must be an int (past actions in the observation), "
+                            f"got {k!r}")
+        if not 0 <= k <= MAX_ACTION_HISTORY:
+            raise ValueError(f"action_history must be in [0, {MAX_ACTION_HISTORY}], got {k}")
+        put("action_history", int(k))
 
     def _put(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)

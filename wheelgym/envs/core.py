@@ -234,12 +234,26 @@ class WheelCore:
         self.params_rows = [self.base_params] * N
 
         self.task: Task = TASKS[task](self, cfg.reward_weights, **cfg.task_kwargs())
-        self.obs_names, high = self.task.obs_layout()
+        names, high = self.task.obs_layout()
+        low = self.task.obs_low() if isinstance(self.task, NavigateTask) else -high
+        #: Observation entries of the task (the first columns of ``obs``).
+        self.task_obs_dim = D = len(names)
+        #: ``action_history``: the last ``k`` actions the policy sent (clipped to [-1, 1]),
+        #: newest first, appended to the task's entries; zeros at a reset. They are what the
+        #: policy commanded, before the perturbation's action faults and delay, and the
+        #: observation noise and faults do not touch them (they act on the task's entries).
+        self.n_history = k = cfg.action_history
+        ad = self.action_dim
+        self._hist = np.zeros((N, k * ad))
+        if k:
+            names = [*names, *(f"prev_action_{t}_{j}" for t in range(1, k + 1)
+                               for j in range(ad))]
+            high = np.concatenate([high, np.ones(k * ad)])
+            low = np.concatenate([low, -np.ones(k * ad)])
+        self.obs_names = names
         self.obs_high = high.astype(np.float32)
-        self.obs_low = (self.task.obs_low() if isinstance(self.task, NavigateTask)
-                        else -high).astype(np.float32)
-        D = len(self.obs_names)
-        self.obs = np.zeros((N, D), dtype=np.float32)
+        self.obs_low = low.astype(np.float32)
+        self.obs = np.zeros((N, len(names)), dtype=np.float32)
         #: The perturbation's per-step signal faults (noise, dropped and stuck entries) or None.
         self.faults: SignalFaults | None = None
         if self.perturbation is not None and self.perturbation.faults:
@@ -554,15 +568,19 @@ class WheelCore:
         self.task.evaluate(idx)
         self._noise(idx)
         if self.faults is not None:
-            self.faults.reset_rows(idx, self.obs)
+            self.faults.reset_rows(idx, self.obs[:, :self.task_obs_dim])
+        if self.n_history:  # no action sent yet
+            self._hist[idx] = 0.0
+            self.obs[idx, self.task_obs_dim:] = 0.0
         return self.obs
 
     def _noise(self, idx: np.ndarray) -> None:
         if self.obs_noise <= 0:
             return
-        noise = np.empty((idx.size, self.obs.shape[1]))
+        D = self.task_obs_dim  # the task's entries (the action history stays exact)
+        noise = np.zeros((idx.size, self.obs.shape[1]))
         for n, i in enumerate(idx):
-            noise[n] = self.rngs[i].normal(0.0, self.obs_noise, self.obs.shape[1])
+            noise[n, :D] = self.rngs[i].normal(0.0, self.obs_noise, D)
         k_noise(idx, self.obs, noise, self.obs_low, self.obs_high)
 
     # ------------------------------------------------------------------ step
@@ -596,6 +614,7 @@ class WheelCore:
             a = a.astype(np.float64, copy=False)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
+        sent = a  # what the policy sent (action_history)
         if self.faults is not None:  # the perturbation's action noise, drops, stuck entries
             rows = self.all_rows if active is None else np.flatnonzero(active)
             self.faults.draw(rows, self.rngs)
@@ -632,5 +651,18 @@ class WheelCore:
         if self.obs_noise > 0:
             self._noise(self.all_rows if active is None else np.flatnonzero(active))
         if self.faults is not None:
-            self.faults.observations(self.obs, rows, self.obs_low, self.obs_high)
+            D = self.task_obs_dim
+            self.faults.observations(self.obs[:, :D] if self.n_history else self.obs, rows,
+                                     self.obs_low[:D], self.obs_high[:D])
+        if self.n_history:
+            self._push_history(sent)
         return self.obs, self.reward, self.term, self.info_buffers
+
+    def _push_history(self, sent: np.ndarray) -> None:
+        """``action_history``: the sent actions (clipped) become the newest entries."""
+        if not np.all(np.isfinite(sent)):  # (the step raised before for a non-finite one)
+            raise ValueError("action must be finite (got NaN or inf)")
+        h, ad = self._hist, self.action_dim
+        h[:, ad:] = h[:, :-ad].copy()
+        np.clip(sent, -1.0, 1.0, out=h[:, :ad])
+        self.obs[:, self.task_obs_dim:] = h

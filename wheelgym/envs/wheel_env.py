@@ -36,6 +36,7 @@ sanity limits. Layout by task (the robot's features, listed above, come after th
 |          | vx, vy, wz; robot features                                           | m/s, rad/s  |
 | navigate | as goal, then range_0..range_15 (rays at yaw + 2 pi k / 16, 0-3 m)   | m           |
 | (-v1)    | then goal_dist, cos_bearing, sin_bearing (+ waypoint_x_b, _y_b)      | m, -        |
+| any      | ``action_history=k``: then prev_action_1_0 .. prev_action_k_{n-1}     | action units|
 
 ## Rewards
 
@@ -166,6 +167,12 @@ there once (the vector env takes the same).
 |                |                   | ("easy", "medium", "hard"): parameter scales, delay,    |
 |                |                   | lag, noise, dropped/stuck actions and observations      |
 |                |                   | (``wheelgym.envs.perturbation``)                        |
+| action_history | 0                 | the last k (0-8) actions sent, clipped to [-1, 1],      |
+|                |                   | appended to the observation newest first (entries       |
+|                |                   | ``prev_action_t_j``), zeros at a reset; not touched by  |
+|                |                   | obs_noise or perturbation faults. With action_delay or  |
+|                |                   | a perturbation's delay, k >= the delay makes the state  |
+|                |                   | Markov again (the actions still to act are observed)    |
 
 Action modes of the dynamic robots (the robot classes' "Action Space" give the scales):
 

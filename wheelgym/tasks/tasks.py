@@ -512,6 +512,7 @@ class NavigateTask(GoalTask):
 
                 self.hint = WaypointHint(self.arena, core.spec.radius, N)
             self._polar = np.zeros((N, 3 + 2 * self.waypoint_hint))
+            self._obs_end = len(self.obs_layout()[0])  # where v1's entries end in core.obs
 
     option_keys = ("start", "goal", "layout_seed")
 
@@ -673,8 +674,8 @@ class NavigateTask(GoalTask):
                 ex, ey = wx - pose[n, 0], wy - pose[n, 1]
                 out[n, 3] = np.clip(cy[n] * ex + sy[n] * ey, -POS_CLIP, POS_CLIP)
                 out[n, 4] = np.clip(-sy[n] * ex + cy[n] * ey, -POS_CLIP, POS_CLIP)
-        k = out.shape[1]
-        c.obs[rows, -k:] = out
+        end = self._obs_end  # the task's last entries (core.obs may hold more after them)
+        c.obs[rows, end - out.shape[1]:end] = out
 
 
 class TrackTask(Task):
