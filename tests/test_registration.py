@@ -83,3 +83,27 @@ def test_spawned_sb3_workers_register_through_the_prefix(tmp_path):
         "    print('workers', obs.shape)\n",
         tmp_path)
     assert "workers (2," in out
+
+
+def _made_warnings(**kwargs) -> list[str]:
+    """The warnings of one ``gym.make`` under wheelgym's own filters only (not pytest's)."""
+    import warnings
+
+    import gymnasium as gym
+
+    from wheelgym.registration import register_envs
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.resetwarnings()
+        register_envs()  # (idempotent) its filter
+        gym.make("wheelgym/DiffDrive-v0", **kwargs).close()
+    return [str(w.message) for w in caught if issubclass(w.category, DeprecationWarning)]
+
+
+def test_v0_is_out_of_date_only_for_navigate():
+    """-v1 changes navigate alone: goal and track -v0 make without Gymnasium's "out of date"
+    notice, navigate -v0 says why and names its -v1 id."""
+    assert not [m for m in _made_warnings(task="goal") if "out of date" in m]
+    assert not [m for m in _made_warnings(task="track") if "out of date" in m]
+    nav = [m for m in _made_warnings(task="navigate") if "out of date" in m]
+    assert len(nav) == 1 and "wheelgym/DiffDrive-v1" in nav[0] and "early" in nav[0]

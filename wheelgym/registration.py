@@ -7,6 +7,8 @@ compiled kernels load at the first ``gym.make``. The native vector environments
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 
 __all__ = ["register_envs", "env_id", "available_robots", "ENV_CLASSES", "DEFAULT_HORIZON",
@@ -46,8 +48,15 @@ def available_robots() -> list[str]:
     return list(ENV_CLASSES)
 
 
+#: Gymnasium's "-v0 is out of date" notice on every ``-v0`` make: -v1 changes navigate only,
+#: so for goal and track it would tell users to move for nothing. The navigate task's -v0 says
+#: so itself (:class:`wheelgym.tasks.NavigateTask`).
+_OUT_OF_DATE = r".*wheelgym/[A-Za-z]+-v0 is out of date"
+
+
 def register_envs() -> None:
     """Register ``wheelgym/<Robot>-v0`` and ``-v1`` for every robot (idempotent)."""
+    warnings.filterwarnings("ignore", message=_OUT_OF_DATE, category=DeprecationWarning)
     for robot, env_class in ENV_CLASSES.items():
         for version in VERSIONS:
             eid = env_id(robot, version)

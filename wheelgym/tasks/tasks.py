@@ -473,6 +473,14 @@ class NavigateTask(GoalTask):
         if version not in (0, 1):
             raise ValueError(f"version must be 0 or 1, got {version!r}")
         self.version = int(version)
+        if self.version == 0:
+            from gymnasium import logger
+
+            robot = core.spec.name
+            logger.deprecation(
+                f"navigate on wheelgym/{robot}-v0: -v0 is out of date for this task (its "
+                f"reward lets a policy gain by ending an episode early); use "
+                f"wheelgym/{robot}-v1 (docs/topics/planning.md)")
         self.waypoint_hint = bool(waypoint_hint) and self.version == 1
         self._scale: np.ndarray | None = None  # v1's per-column weight scales (below)
         if self.version == 1:
