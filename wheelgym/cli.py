@@ -290,8 +290,9 @@ def _parser() -> argparse.ArgumentParser:
 
     rb = sub.add_parser("robustness", help="sweep perturbations: agent vs nominal- and "
                                            "true-model baseline vs random")
-    rb.add_argument("target", metavar="TARGET",
-                    help="a shipped agent's name (agents/pretrained/) or a run folder")
+    rb.add_argument("target", metavar="TARGET", nargs="?", default=None,
+                    help="a shipped agent's name (agents/pretrained/) or a run folder "
+                         "(optional with --page)")
     rb.add_argument("--episodes", type=_positive_int, default=50,
                     help="episodes per level and policy, one batch (default 50)")
     rb.add_argument("--seed", type=_nonneg_int, default=100_000,
@@ -308,6 +309,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="CSV to append to and resume from (default OUT/robustness.csv)")
     rb.add_argument("--plots-only", action="store_true",
                     help="redraw the figures and the summary from the CSV, run nothing")
+    rb.add_argument("--page", type=Path, default=None, metavar="PAGE.md",
+                    help="also write the results page from the whole CSV (e.g. "
+                         "docs/topics/robustness-results.md); without TARGET only that")
     c = sub.add_parser("configs", help="list the shipped configs, or print one (to copy and "
                                        "edit: wheelgym configs NAME > my.yml)")
     c.add_argument("name", nargs="?", default=None, metavar="NAME",
@@ -716,6 +720,14 @@ def _cmd_robustness(a: argparse.Namespace) -> int:
     def split(text: str | None) -> list[str] | None:
         return None if text is None else [x.strip() for x in text.split(",") if x.strip()]
 
+    if a.target is None:
+        if a.page is None:
+            raise ValueError("robustness: give a TARGET (a shipped agent's name or a run "
+                             "folder), or --page PAGE.md to write the results page alone")
+        from wheelgym.agents.robustness_page import write_page
+
+        _print(f"wrote {write_page(csv_path, a.page)}")
+        return 0
     if a.plots_only:
         name = a.target if not (Path(a.target) / "config.yml").is_file() else Path(a.target).name
         targets = [name]
@@ -728,6 +740,10 @@ def _cmd_robustness(a: argparse.Namespace) -> int:
     files = rob.plot(csv_path, out, targets)
     _print(rob.summary_table(csv_path, targets))
     _print(f"wrote {', '.join(p.name for p in files)} to {out}")
+    if a.page is not None:
+        from wheelgym.agents.robustness_page import write_page
+
+        _print(f"wrote {write_page(csv_path, a.page)}")
     return 0
 
 

@@ -89,3 +89,43 @@ def test_axes_per_robot():
     for a in rob.AXES.values():  # each axis holds its nominal level
         assert ("none" if a.name == "combined" else 0.0 if a.unit in ("steps", "s", "m")
                 or a.name.startswith(("obs", "action")) else 1.0) in a.levels, a.name
+
+
+def _comb_rows(target: str, pol: str, values: dict[str, tuple[float, float | None]]):
+    return [{"target": target, "config": target, "axis": "combined", "level": lv,
+             "policy": pol, "episodes": "50", "seed": "100000", "success": str(s),
+             "rms": "" if rms is None else str(rms), "status": "ok"}
+            for lv, (s, rms) in values.items()]
+
+
+def test_falls_at_reads_the_first_combined_level_that_fails():
+    from wheelgym.agents.robustness_page import falls_at
+
+    goal = _comb_rows("X-goal-torque", "agent", {"none": (100, None), "easy": (96, None),
+                                                "medium": (78, None), "hard": (20, None)})
+    assert falls_at(goal, "agent", track=False) == "medium (78%)"
+    assert falls_at(goal, "baseline-nom", track=False) == "n/a"
+    held = _comb_rows("X-goal-torque", "agent", {lv: (92, None) for lv in
+                                                 ("none", "easy", "medium", "hard")})
+    assert falls_at(held, "agent", track=False) == "beyond hard"
+    # track: against the policy's own nominal RMS (4 mm): 7.9 mm holds, 8.1 mm does not
+    track = _comb_rows("X-track-torque", "agent", {"none": (100, 0.004), "easy": (100, 0.0079),
+                                                  "medium": (100, 0.0081)})
+    assert falls_at(track, "agent", track=True) == "medium (8 mm)"
+
+
+def test_results_page_is_the_committed_csv_written_out(tmp_path):
+    """docs/topics/robustness-results.md is what `wheelgym robustness --page` writes from the
+    committed CSV (run the command after a sweep), and the CLI writes it without a TARGET."""
+    from pathlib import Path
+
+    from wheelgym.agents.robustness_page import render_page
+
+    root = Path(__file__).resolve().parents[2]
+    page = root / "docs" / "topics" / "robustness-results.md"
+    csv_path = root / "benchmarks" / "results" / "robustness" / "robustness.csv"
+    assert page.read_text() == render_page(csv_path, page)
+    out = tmp_path / "page.md"
+    assert main(["robustness", "--page", str(out), "--csv", str(csv_path)]) == 0
+    assert "## Summary" in out.read_text() and "ThreeWheel-goal-torque" in out.read_text()
+    assert main(["robustness"]) == 2  # neither a TARGET nor --page

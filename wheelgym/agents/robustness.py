@@ -28,6 +28,8 @@ the policies as lines (``docs/topics/robustness.md``).
 from __future__ import annotations
 
 import csv
+import dataclasses
+import json
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -124,11 +126,14 @@ def load_target(target: str | Path) -> tuple[str, Any, TrainConfig]:
             raise ValueError(f"{path}: no model.zip")
         agent = load_agent(path / "model.zip", config.algo, path / "vecnormalize.pkl",
                            device=config.device)
-        return path.name, agent, config
+        run = path / "run.json"  # the config file it was trained from (the CSV's config column)
+        source = json.loads(run.read_text()).get("config_source") if run.is_file() else None
+        return path.name, agent, dataclasses.replace(config, source=source or config.source)
     from wheelgym.agents.pretrained import load_pretrained
 
     agent, config = load_pretrained(str(target))
-    return Path(config.source).parent.name, agent, config
+    name = Path(config.source).parent.name
+    return name, agent, dataclasses.replace(config, source=f"{name}.yml")
 
 
 def _robot_of(config: TrainConfig) -> Any:

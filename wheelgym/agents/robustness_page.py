@@ -1,0 +1,202 @@
+"""The robustness results page, written from the sweep's CSV
+(``docs/topics/robustness-results.md``).
+
+``wheelgym robustness --page PAGE`` (:func:`write_page`) turns the rows of
+:mod:`wheelgym.agents.robustness` into Markdown: a summary of the combined level at which each
+policy falls (success under 90% on goal, the RMS tracking error over twice the policy's own
+nominal RMS on track), the robust agents (``configs/*-robust.yml``, trained under the ``medium``
+level) against the agents trained on the nominal robot, and per agent the combined levels, the
+first failing level of every axis and its figures. Nothing on the page is typed by hand, so it
+is never staler than the CSV.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+from wheelgym.agents.robustness import POLICIES, read_rows, summary_table
+from wheelgym.registration import ENV_CLASSES
+
+__all__ = ["COMBINED", "falls_at", "render_page", "write_page", "SUCCESS_MIN", "RMS_FACTOR"]
+
+#: The combined levels, the nominal first (``wheelgym.envs.perturbation.LEVELS``).
+COMBINED = ("none", "easy", "medium", "hard")
+#: Goal: a policy holds a level while its success is at least this (%).
+SUCCESS_MIN = 90.0
+#: Track: a policy holds a level while its RMS error is at most this times its nominal RMS.
+RMS_FACTOR = 2.0
+_SHOWN = ("agent", "baseline-nom", "baseline-true")
+
+
+def _num(v: str) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _combined(rows: Sequence[dict[str, str]]) -> dict[tuple[str, str], dict[str, str]]:
+    return {(r["policy"], r["level"]): r for r in rows if r["axis"] == "combined"}
+
+
+def _value(r: dict[str, str], track: bool) -> str:
+    return f"{1000 * _num(r['rms']):.0f} mm" if track else f"{_num(r['success']):.0f}%"
+
+
+def falls_at(rows: Sequence[dict[str, str]], policy: str, track: bool) -> str:
+    """The first combined level at which ``policy`` falls, with its value there
+    (``"medium (78%)"``), ``"beyond hard"`` when it holds them all, ``"n/a"`` when unswept."""
+    comb = _combined(rows)
+    if (policy, "none") not in comb:
+        return "n/a"
+    ref = _num(comb[(policy, "none")]["rms"])
+    for level in COMBINED:
+        r = comb.get((policy, level))
+        if r is None:
+            continue
+        bad = (not _num(r["rms"]) <= RMS_FACTOR * ref) if track else (
+            not _num(r["success"]) >= SUCCESS_MIN)
+        if bad:
+            return f"{'nominal' if level == 'none' else level} ({_value(r, track)})"
+    return "beyond hard"
+
+
+def _is_track(rows: Sequence[dict[str, str]]) -> bool:
+    return any(r["rms"] for r in rows)
+
+
+def _summary(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
+    lines = ["## Summary: the combined level at which each policy falls", "",
+             f"Success under {SUCCESS_MIN:.0f}% (goal) or the RMS tracking error over "
+             f"{RMS_FACTOR:g}x the policy's own nominal RMS (track), with the value there; "
+             "\"beyond hard\": still within at `hard`.", "",
+             "| agent | criterion | " + " | ".join(_SHOWN) + " |", "|---|---|" + "---|" * 3]
+    for name, rows in by_target.items():
+        track = _is_track(rows)
+        crit = f"RMS > {RMS_FACTOR:g}x own nominal" if track else f"success < {SUCCESS_MIN:.0f}%"
+        lines.append(f"| {name} | {crit} | "
+                     + " | ".join(falls_at(rows, p, track) for p in _SHOWN) + " |")
+    return lines + [""]
+
+
+def _robust(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
+    """Each ``<config>-robust`` agent against ``<config>`` at the ``medium`` level."""
+    pairs = [(n, n[: -len("-robust")]) for n in by_target if n.endswith("-robust")]
+    if not pairs:
+        return []
+    lines = ["## Robust agents at `medium`", "",
+             "Agents trained under the `medium` level (`configs/*-robust.yml`) against the agents "
+             "of the same config trained on the nominal robot, on the same episodes. Goal: "
+             f"success at `medium` (target >= {SUCCESS_MIN:.0f}%); track: the RMS error at "
+             "`medium` over the agent's own RMS without perturbation (target <= "
+             f"{RMS_FACTOR:g}x), with the RMS at `medium`.", "",
+             "| robust agent | criterion | robust agent | nominal-trained agent | baseline-nom | "
+             "baseline-true | target |", "|---|---|---|---|---|---|---|"]
+    for robust, nominal in pairs:
+        comb = _combined(by_target[robust])
+        track = _is_track(by_target[robust])
+        cells = [_at_medium(comb, "agent", track)]
+        cells.append(_at_medium(_combined(by_target.get(nominal, [])), "agent", track))
+        cells += [_at_medium(comb, p, track) for p in ("baseline-nom", "baseline-true")]
+        met = _robust_met(comb, track)
+        crit = "RMS medium / none" if track else "success at medium"
+        lines.append(f"| {robust} | {crit} | " + " | ".join(cells) + f" | {met} |")
+    return lines + [""]
+
+
+def _at_medium(comb: dict[tuple[str, str], dict[str, str]], policy: str, track: bool) -> str:
+    med, none = comb.get((policy, "medium")), comb.get((policy, "none"))
+    if med is None or none is None:
+        return "n/a"
+    if not track:
+        return f"{_num(med['success']):.0f}%"
+    ratio = _num(med["rms"]) / _num(none["rms"]) if _num(none["rms"]) > 0 else math.inf
+    return f"{ratio:.1f}x ({1000 * _num(med['rms']):.0f} mm)"
+
+
+def _robust_met(comb: dict[tuple[str, str], dict[str, str]], track: bool) -> str:
+    med, none = comb.get(("agent", "medium")), comb.get(("agent", "none"))
+    if med is None or none is None:
+        return "n/a"
+    ok = (_num(med["rms"]) <= RMS_FACTOR * _num(none["rms"])) if track else (
+        _num(med["success"]) >= SUCCESS_MIN)
+    return "met" if ok else "**missed**"
+
+
+def _per_agent(name: str, rows: list[dict[str, str]], csv_path: Path, fig_rel: str) -> list[str]:
+    track = _is_track(rows)
+    comb = _combined(rows)
+    what = "success [%] / RMS tracking error [mm]" if track else "success [%]"
+    lines = [f"### {name}", "", f"Combined levels, {what}:", "",
+             "| policy | " + " | ".join(COMBINED) + " |", "|---|" + "---|" * len(COMBINED)]
+    for pol in POLICIES:
+        cells = []
+        for level in COMBINED:
+            r = comb.get((pol, level))
+            if r is None:
+                cells.append("-")
+            elif track:
+                cells.append(f"{_num(r['success']):.0f} / {1000 * _num(r['rms']):.1f}")
+            else:
+                cells.append(f"{_num(r['success']):.0f}")
+        if any(c != "-" for c in cells):
+            lines.append(f"| {pol} | " + " | ".join(cells) + " |")
+    crit = (f"RMS > {RMS_FACTOR:g}x the policy's nominal RMS" if track
+            else f"success < {SUCCESS_MIN:.0f}%")
+    table = summary_table(csv_path, [name]).splitlines()[2:]  # without its bold title line
+    lines += ["", f"First level failing ({crit}; `-`: none within the levels, `nominal`: fails "
+              "without perturbation):", "", *[t for t in table if t], ""]
+    figs = [c for c in ("success", "rms", "energy")
+            if (csv_path.parent / f"{name}-{c}.png").is_file()]
+    lines += [" ".join(f"![{name} {c}]({fig_rel}/{name}-{c}.png)" for c in figs), ""]
+    return lines
+
+
+def _order(name: str) -> tuple:
+    """Robots in the table's order, then task, then the rest of the name."""
+    robots = list(ENV_CLASSES)
+    robot, _, rest = name.partition("-")
+    task = rest.split("-", 1)[0]
+    tasks = ("goal", "track", "navigate")
+    return (robots.index(robot) if robot in robots else len(robots),
+            tasks.index(task) if task in tasks else len(tasks), rest)
+
+
+def render_page(csv_path: str | Path, page: str | Path) -> str:
+    """The page's Markdown from ``csv_path``; figure links relative to ``page``'s folder."""
+    csv_path = Path(csv_path)
+    rows = [r for r in read_rows(csv_path) if r.get("status") == "ok"]
+    by_target: dict[str, list[dict[str, str]]] = {}
+    for r in sorted(rows, key=lambda r: _order(r["target"])):
+        by_target.setdefault(r["target"], []).append(r)
+    fig_rel = Path(os.path.relpath(csv_path.parent.resolve(), Path(page).parent.resolve()))
+    n_eps = sorted({r["episodes"] for r in rows})
+    lines = ["# Robustness results", "",
+             "Written by `python -m wheelgym.cli robustness --page "
+             "docs/topics/robustness-results.md` from "
+             f"`{_shown_path(csv_path, Path(page))}` ({len(rows)} rows, {len(by_target)} agents, "
+             f"{'/'.join(n_eps)} episodes per level and policy); what the axes, levels and "
+             "policies are: [Robustness](robustness.md).", "",
+             *_summary(by_target), *_robust(by_target), "## Per agent", ""]
+    for name, mine in by_target.items():
+        lines += _per_agent(name, mine, csv_path, fig_rel.as_posix())
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _shown_path(path: Path, page: Path) -> str:
+    """``path`` from the folder the page and the CSV share (a checkout's root)."""
+    a, b = path.resolve(), page.resolve()
+    try:
+        return Path(os.path.relpath(a, os.path.commonpath([a, b]))).as_posix()
+    except ValueError:  # another drive
+        return a.as_posix()
+
+
+def write_page(csv_path: str | Path, page: str | Path) -> Path:
+    """Write :func:`render_page` to ``page``; its path."""
+    page = Path(page)
+    page.write_text(render_page(csv_path, page))
+    return page
