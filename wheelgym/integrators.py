@@ -11,6 +11,10 @@ Two entry points share one algorithm, the classic four-stage Runge-Kutta method
   function ``ft(x, u, p) -> xdot`` without branches (ThreeWheel): the compiler then evaluates
   four robots per instruction (AVX2), 4.2x faster per robot than a row at a time, and each
   robot still gets the bits of the one-state arithmetic (lanes never mix).
+* :func:`llvm_inline` marks the compiled pieces of the models (the derivatives and what
+  they call): compiled once each, inlined by LLVM into every kernel that calls them (numba's
+  ``inline="always"``, which inlines in numba's own IR at every call site, stays only on
+  bodies that take a function argument, such as the RK4 bodies here).
 * :func:`rk4` is the same scheme for any Python callable ``f(x, u) -> xdot`` on arrays; the
   tests and validation use it for augmented systems (energy integrals, reference formulations).
 
