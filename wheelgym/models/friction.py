@@ -64,10 +64,11 @@ def atan(x):  # pragma: no cover - compiled
     # vectorise); no division by zero
     big = ax > TAN_3PI_8
     mid = ax > 0.66
-    t_big = -1.0 / (ax if big else 1.0)
-    t_mid = (ax - 1.0) / (ax + 1.0)
+    # one division for the three reductions: -1 / ax, (ax - 1) / (ax + 1), or ax / 1 (exact,
+    # the same bits as ax)
+    t = ((-1.0 if big else (ax - 1.0 if mid else ax))
+         / (ax if big else (ax + 1.0 if mid else 1.0)))
     y = 0.5 * math.pi if big else (0.25 * math.pi if mid else 0.0)
-    t = t_big if big else (t_mid if mid else ax)
     extra = ATAN_MOREBITS if big else (0.5 * ATAN_MOREBITS if mid else 0.0)
     z = t * t
     num = fma(fma(fma(fma(-8.750608600031904122785e-1, z, -1.615753718733365076637e1), z,
