@@ -168,7 +168,9 @@ def test_llvm_inline_piece_is_inlined_by_llvm():
 
 def test_model_derivative_inlines_its_pieces(tmp_path):
     """ThreeWheel's one-state derivative, compiled afresh (an empty cache directory, in a
-    fresh process): LLVM inlined its ``llvm_inline`` pieces, no call to them remains."""
+    fresh process): LLVM inlined its ``llvm_inline`` pieces, no call to them remains; and
+    again with the pieces loaded from numba's disk cache (the ``alwaysinline`` attribute
+    travels in the cached linking module) and only the derivative recompiled."""
     import os
     import subprocess
     import sys
@@ -182,9 +184,19 @@ def test_model_derivative_inlines_its_pieces(tmp_path):
         "ll = K.deriv_one.inspect_llvm(K.deriv_one.signatures[0])\n"
         "names = ('deriv_block', 'trig', 'sincos', 'solve3', 'loads', 'atan', 'sgn_s')\n"
         "called = [n for n in names if re.search(r'call [^\\n]*@\"?_ZN[^\\n]*' + n, ll)]\n"
-        "print('CALLED', called, 'compiled', K.deriv_block.signatures != [])\n"
+        "print('CALLED', called, 'loaded', bool(K.deriv_block._cache_hits))\n"
     )
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True).stdout
-    assert "CALLED [] compiled True" in out, out
+
+    def run() -> str:
+        return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                              text=True, check=True).stdout
+
+    out = run()
+    assert "CALLED [] loaded False" in out, out
+    stale = list(tmp_path.rglob("three_wheel.deriv_one-*"))
+    assert stale
+    for f in stale:
+        f.unlink()
+    out = run()
+    assert "CALLED [] loaded True" in out, out
