@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 from numba import njit
+from numba import types as numba_types
 
 from wheelgym.integrators import check_substeps, n_substeps, rk4
 from wheelgym.models import SkidSteer
@@ -133,3 +134,69 @@ def test_single_state_kernels_compile_on_first_call_only():
     with pytest.raises(TypeError):  # other types never compile a second signature
         k.step1(x.astype(np.float32), u, p, 0.1, 2)
     assert len(k.step1.signatures) == 1
+
+
+def _half_inverse(x):  # a piece for the test below
+    return 0.5 / x
+
+
+def test_llvm_inline_piece_is_inlined_by_llvm():
+    """An ``llvm_inline`` piece is compiled on its own (one dispatcher, one signature) and
+    LLVM inlines it: the caller's optimised IR has no call to it. Its error model is NumPy's:
+    a division by zero gives inf (no exception branch in vectorised callers)."""
+    import re
+
+    from wheelgym.integrators import llvm_inline
+
+    piece = llvm_inline(_half_inverse, cache=False)
+
+    @njit
+    def caller(a):
+        s = 0.0
+        for i in range(a.shape[0]):
+            s += piece(a[i])
+        return s
+
+    assert caller(np.array([1.0, 2.0])) == 0.75
+    assert piece.signatures == [(numba_types.float64,)]
+    mangled = piece.overloads[piece.signatures[0]].fndesc.mangled_name
+    assert "alwaysinline" in piece.inspect_llvm(piece.signatures[0])
+    ll = caller.inspect_llvm(caller.signatures[0])
+    assert not re.search(r"call [^\n]*@\"?" + re.escape(mangled), ll)
+    assert math.isinf(caller(np.array([0.0])))
+
+
+def test_model_derivative_inlines_its_pieces(tmp_path):
+    """ThreeWheel's one-state derivative, compiled afresh (an empty cache directory, in a
+    fresh process): LLVM inlined its ``llvm_inline`` pieces, no call to them remains; and
+    again with the pieces loaded from numba's disk cache (the ``alwaysinline`` attribute
+    travels in the cached linking module) and only the derivative recompiled."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import re, numpy as np\n"
+        "import wheelgym.models.kernels.three_wheel as K\n"
+        "x = np.zeros(K.NX); u = np.zeros(K.NU); out = np.zeros(K.NX)\n"
+        "p = np.random.default_rng(0).uniform(0.5, 1.5, K.NP)\n"
+        "K.deriv_one(x, u, p, out)\n"
+        "ll = K.deriv_one.inspect_llvm(K.deriv_one.signatures[0])\n"
+        "names = ('deriv_block', 'trig', 'sincos', 'solve3', 'loads', 'atan', 'sgn_s')\n"
+        "called = [n for n in names if re.search(r'call [^\\n]*@\"?_ZN[^\\n]*' + n, ll)]\n"
+        "print('CALLED', called, 'loaded', bool(K.deriv_block._cache_hits))\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+
+    def run() -> str:
+        return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                              text=True, check=True).stdout
+
+    out = run()
+    assert "CALLED [] loaded False" in out, out
+    stale = list(tmp_path.rglob("three_wheel.deriv_one-*"))
+    assert stale
+    for f in stale:
+        f.unlink()
+    out = run()
+    assert "CALLED [] loaded True" in out, out

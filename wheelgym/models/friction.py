@@ -13,9 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-from wheelgym.integrators import fma
+from wheelgym.integrators import fma, llvm_inline
 
 PIO2_1 = 1.57079625129699707031  # pi/2 in three parts (Cody-Waite; k * PIO2_1 exact
 PIO2_2 = 7.54978941586159635336e-8  # for |k| < 2^27, so |x| < 2e8 rad)
@@ -25,7 +24,7 @@ TAN_3PI_8 = 2.41421356237309504880
 ATAN_MOREBITS = 6.123233995736765886130e-17
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def sincos(x):  # pragma: no cover - compiled
     """``(sin x, cos x)`` to 2 ulp for ``|x| < 2e8`` (near the zeros to ``1e-31 |x|``, the
     accuracy of the reduction); Cephes polynomials on ``|r| <= pi/4``, by fused
@@ -56,7 +55,7 @@ def sincos(x):  # pragma: no cover - compiled
     return a, b
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def atan(x):  # pragma: no cover - compiled
     """``arctan x`` to 1 ulp (Cephes: reduction to ``|t| <= 0.66``, rational 4/5 fit, by fused
     multiply-adds)."""
@@ -65,10 +64,11 @@ def atan(x):  # pragma: no cover - compiled
     # vectorise); no division by zero
     big = ax > TAN_3PI_8
     mid = ax > 0.66
-    t_big = -1.0 / (ax if big else 1.0)
-    t_mid = (ax - 1.0) / (ax + 1.0)
+    # one division for the three reductions: -1 / ax, (ax - 1) / (ax + 1), or ax / 1 (exact,
+    # the same bits as ax)
+    t = ((-1.0 if big else (ax - 1.0 if mid else ax))
+         / (ax if big else (ax + 1.0 if mid else 1.0)))
     y = 0.5 * math.pi if big else (0.25 * math.pi if mid else 0.0)
-    t = t_big if big else (t_mid if mid else ax)
     extra = ATAN_MOREBITS if big else (0.5 * ATAN_MOREBITS if mid else 0.0)
     z = t * t
     num = fma(fma(fma(fma(-8.750608600031904122785e-1, z, -1.615753718733365076637e1), z,
@@ -81,13 +81,13 @@ def atan(x):  # pragma: no cover - compiled
     return r if x >= 0.0 else -r
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def sgn_s(s, k_s):  # pragma: no cover - compiled
     """Smoothed sign ``(2/pi) arctan(k_s s)`` (docs/physics/conventions.md); in (-1, 1)."""
     return TWO_OVER_PI * atan(k_s * s)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dsgn_s(s, k_s):  # pragma: no cover - compiled
     """Derivative of :func:`sgn_s` with respect to ``s``; largest, ``2 k_s / pi``, at 0."""
     ks = k_s * s

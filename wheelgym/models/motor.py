@@ -65,7 +65,8 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from numba import njit
+
+from wheelgym.integrators import llvm_inline
 
 __all__ = [
     "MODES", "MOTOR_IDEAL", "MOTOR_DC", "MOTOR_DC_VOLTAGE", "MOTOR_NP", "M_K", "M_ETA",
@@ -121,7 +122,7 @@ def pack_motor(n: float, eta: float, k_t: float, R_w: float, V_s: float,
     return [K, eta, 1.0 / eta, R_w, 1.0 / R_w, V_s, I_max, 1.0 / (K * eta), eta / K]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dc_current(u, omega, mode, p, o):  # pragma: no cover - compiled
     """Motor current ``i`` (A) and back-EMF ``e`` (V) of the motor block at ``p[o:]`` for the
     input ``u`` (joint torque command, N·m, or terminal voltage, V, when ``mode`` is
@@ -138,21 +139,21 @@ def dc_current(u, omega, mode, p, o):  # pragma: no cover - compiled
     return min(max(i, (-vs - e) * inv_r), (vs - e) * inv_r), e  # the supply voltage
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dc_torque(i, omega, p, o):  # pragma: no cover - compiled
     """Joint torque (N·m) of current ``i`` at joint speed ``omega``: ``eta n k_t i`` motoring,
     ``n k_t i / eta`` driven back (module docstring)."""
     return p[o + M_K] * i * (p[o + M_ETA] if i * omega >= 0.0 else p[o + M_INV_ETA])
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def ideal_applied(u, omega, mode, p, o):  # pragma: no cover - compiled
     """The ideal motor: the joint gets the command ``u`` (the derivative of the ideal-motor
     kernels, which compute exactly the bits of the model before the motor law)."""
     return u
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dc_applied(u, omega, mode, p, o):  # pragma: no cover - compiled
     """The joint torque the motor applies: ``u`` itself in ideal mode (``mode == 0``, the same
     bits), else the DC motor's torque for the input ``u`` at joint speed ``omega``."""
@@ -161,7 +162,7 @@ def dc_applied(u, omega, mode, p, o):  # pragma: no cover - compiled
     return t if mode != MOTOR_IDEAL else u
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dc_power(u, omega, mode, p, o):  # pragma: no cover - compiled
     """Electrical power ``V i = i (R_w i + e)`` (W) the motor draws for input ``u`` at joint
     speed ``omega`` (DC modes)."""

@@ -145,5 +145,5 @@ SPEC = RobotSpec(
     geometry=_geometry,
     wheels=_wheels,
     motor_names=("drive_L", "drive_R"),
-    compile_s={"step": 15.0, "dc": 15.0},  # benchmarks/coldstart.py
+    compile_s={"step": 5.0, "dc": 5.0},  # benchmarks/coldstart.py
 )

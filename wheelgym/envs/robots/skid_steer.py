@@ -167,5 +167,5 @@ SPEC = RobotSpec(
     wheels=_wheels,
     motor_names=("rear_left", "front_left", "front_right", "rear_right"),
     baseline_controllers=True,
-    compile_s={"step": 15.0, "dc": 15.0, "blocks": 40.0},  # benchmarks/coldstart.py
+    compile_s={"step": 5.0, "dc": 5.0, "blocks": 5.0},  # benchmarks/coldstart.py
 )

@@ -202,5 +202,5 @@ SPEC = RobotSpec(
     baseline_controllers=True,
     n_steer_motor=3,
     stiffness_probe=_STIFFNESS_PROBE,
-    compile_s={"step": 45.0, "dc": 45.0, "blocks": 150.0},  # benchmarks/coldstart.py
+    compile_s={"step": 10.0, "dc": 8.0, "blocks": 12.0},  # benchmarks/coldstart.py
 )

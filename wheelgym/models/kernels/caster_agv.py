@@ -32,7 +32,7 @@ from numba import njit
 
 from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
-from wheelgym.integrators import model_kernels
+from wheelgym.integrators import llvm_inline, model_kernels
 from wheelgym.models import friction as _friction_module
 from wheelgym.models import motor as _motor_module
 from wheelgym.models.friction import sgn_s
@@ -67,7 +67,7 @@ NU = 2  # input size
 
 
 # ---------------------------------------------------------------------------- compiled pieces
-@njit(cache=True, inline="always")
+@llvm_inline
 def gh(cs, sn, p):  # pragma: no cover - compiled
     """Caster ``g_c``, ``h_c`` (docs/physics/three-wheel.md TW-1 with the vy column dropped)."""
     ax = p[P_AX]
@@ -75,7 +75,7 @@ def gh(cs, sn, p):  # pragma: no cover - compiled
     return cs, ax * sn - ay * cs, -sn, ax * cs + ay * sn
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def loads(cs, sn, p):  # pragma: no cover - compiled
     """Static normal loads ``(N_L, N_R, N_c)`` (N): total weight at the total centre of mass,
     force and moment balance over the contacts ``(0, c)``, ``(0, -c)``, ``p = a - d e``.
@@ -91,7 +91,7 @@ def loads(cs, sn, p):  # pragma: no cover - compiled
     return 0.5 * (rest + diff), 0.5 * (rest - diff), t + p[P_GMC]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def mass(gc0, gc1, hc0, hc1, p):  # pragma: no cover - compiled
     """``(m00, m01, m11)`` of M(sigma) (module docstring)."""
     c = p[P_C]
@@ -103,7 +103,7 @@ def mass(gc0, gc1, hc0, hc1, p):  # pragma: no cover - compiled
             p[P_M11] + 2.0 * kw * c * c + kc * gc1 * gc1 + kz * hc1 * hc1)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def bias(gc0, gc1, hc0, hc1, v, w, p):  # pragma: no cover - compiled
     """Coriolis/centripetal term ``c(sigma, u)`` (module docstring,
     docs/physics/three-wheel.md TW-3)."""
@@ -115,7 +115,7 @@ def bias(gc0, gc1, hc0, hc1, v, w, p):  # pragma: no cover - compiled
     return -p[P_MBXG] * w * w + a * gc0 - b * hc0, p[P_MBXG] * w * v + a * gc1 - b * hc1
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p):  # pragma: no cover - compiled
     """Generalized friction ``Q_f(sigma, u)`` (module docstring,
     docs/physics/three-wheel.md TW-4)."""
@@ -138,7 +138,7 @@ def friction(gc0, gc1, hc0, hc1, v, w, n_l, n_r, n_c, p):  # pragma: no cover - 
     return q0, q1
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def friction_jac_rest(gc0, gc1, hc0, hc1, n_l, n_r, n_c, p):  # pragma: no cover - compiled
     """``(e00, e01, e11)`` of ``dQ_f/du`` at ``u = 0`` (symmetric, negative definite)."""
     k = 2.0 * p[P_KS] / math.pi  # slope of sgn_s at 0
@@ -205,14 +205,14 @@ def deriv_one_dc(x, u, p, out):  # pragma: no cover - compiled
     _deriv_one(x, u, p, out, dc_applied)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t(x, k, u, p):  # pragma: no cover - compiled
     """Motor power ``tau_L thetadot_L + tau_R thetadot_R`` (W) of ideal motors at a stage whose
     derivative is ``k`` (``k[6]``, ``k[7]`` the drive rates; the environment's stage power)."""
     return u[0] * k[6] + u[1] * k[7]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
     """Power the DC motors draw (W): the electrical ``sum V i`` (models/motor.py) at the
     drive rates of ``k``; :func:`power_t` where the mode code is ideal."""

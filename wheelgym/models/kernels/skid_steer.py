@@ -27,7 +27,7 @@ from numba import njit
 
 from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
-from wheelgym.integrators import model_kernels
+from wheelgym.integrators import llvm_inline, model_kernels
 from wheelgym.models import friction as _friction_module
 from wheelgym.models import motor as _motor_module
 from wheelgym.models.friction import sgn_s, sincos
@@ -57,14 +57,14 @@ NU = 4  # input size
 
 
 # ---------------------------------------------------------------------------- compiled pieces
-@njit(cache=True, inline="always")
+@llvm_inline
 def loads(p):  # pragma: no cover - compiled
     """(N_rear, N_front) of SS-2."""
     s = 2.0 * (p[P_A] + p[P_B])
     return p[P_B] * p[P_M] * p[P_G] / s, p[P_A] * p[P_M] * p[P_G] / s
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def resist(vx, wz, p):  # pragma: no cover - compiled
     """Rbar = (sum F_si, -x_icr sum F_li + M_r) of SS-2/SS-3 and the friction power (W, <= 0).
 
@@ -99,7 +99,7 @@ def resist(vx, wz, p):  # pragma: no cover - compiled
     return sum_fs, -xicr * sum_fl + m_r, power  # SS-3 Rbar
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def wheel_rates(vx, wz, p):  # pragma: no cover - compiled
     """``(omega_L, omega_R) = ((vx - c wz) / r, (vx + c wz) / r)`` (SS-1), rad/s."""
     return (vx - p[P_C] * wz) * p[P_INVR], (vx + p[P_C] * wz) * p[P_INVR]
@@ -128,13 +128,13 @@ def _deriv(x, u, p, applied):  # pragma: no cover - compiled
     return (cy * vx - sy * vy, sy * vx + cy * vy, wz, f0 / m, f1 / (m * xicr * xicr + p[P_I]))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def deriv_block(x, u, p):  # pragma: no cover - compiled
     """The state derivative as a 5-tuple with ideal motors (the wheels get ``u``)."""
     return _deriv(x, u, p, ideal_applied)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def deriv_block_dc(x, u, p):  # pragma: no cover - compiled
     """The state derivative as a 5-tuple with DC motors (models/motor.py)."""
     return _deriv(x, u, p, dc_applied)
@@ -154,7 +154,7 @@ def deriv_one_dc(x, u, p, out):  # pragma: no cover - compiled
         out[j] = d[j]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t(x, k, u, p):  # pragma: no cover - compiled
     """Motor power ``tau . omega`` (W) of ideal motors at state ``x``: the state holds no
     wheel angles, so
@@ -165,7 +165,7 @@ def power_t(x, k, u, p):  # pragma: no cover - compiled
     return ((tl + tr) * x[3] + p[P_C] * (tr - tl) * x[4]) / p[P_R]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
     """Power the DC motors draw (W): the electrical power ``sum V i`` (models/motor.py), which
     the environments' energy integral then accumulates; :func:`power_t` where the mode code

@@ -44,7 +44,7 @@ from numba import njit
 
 from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
-from wheelgym.integrators import fma, model_kernels
+from wheelgym.integrators import fma, llvm_inline, model_kernels
 from wheelgym.models import friction as _friction_module
 from wheelgym.models import motor as _motor_module
 from wheelgym.models.friction import atan, sgn_s, sincos
@@ -89,7 +89,7 @@ NU = 6  # input size
 # g = (g0, g1, g2), h = (h0, h1, h2) of TW-1; gu = g.u, hu = h.u.
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def trig(psi1, psi2, psi3):  # pragma: no cover - compiled
     s1, c1 = sincos(psi1)
     s2, c2 = sincos(psi2)
@@ -97,7 +97,7 @@ def trig(psi1, psi2, psi3):  # pragma: no cover - compiled
     return (c1, s1, c2, s2, c3, s3)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def gh(cs, i, p):  # pragma: no cover - compiled
     """``g_i`` and ``h_i`` of docs/physics/three-wheel.md TW-1
     (caster-singularity paper (8)-(11))."""
@@ -108,7 +108,7 @@ def gh(cs, i, p):  # pragma: no cover - compiled
     return (c, s, fma(ax, s, -(ay * c))), (-s, c, fma(ax, c, ay * s))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def loads(cs, p):  # pragma: no cover - compiled
     """Static normal loads ``N_i`` (TW-4): barycentric weights of the CoM in the wheel-centre
     triangle, ``N_1 = m g [p_2, p_3] / ([p_2, p_3] + [p_3, p_1] + [p_1, p_2])`` and cyclic,
@@ -127,7 +127,7 @@ def loads(cs, p):  # pragma: no cover - compiled
     return w * c23, w * c31, w * c12
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _mass_i(g, p):  # pragma: no cover - compiled
     """Module share ``(k_w - k_z) g g^T`` of ``M - M_0`` (TW-3), upper triangle; the rest of
     ``k_w g g^T + k_z h h^T`` is constant (see ThreeWheelParams.pack)."""
@@ -141,25 +141,25 @@ def _mass_i(g, p):  # pragma: no cover - compiled
 # (g_i, h_i, e_3) and ``_assemble`` turns them into the 3-vector a g_i + b h_i + c e_3.
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def dot3(a, vx, vy, wz):  # pragma: no cover - compiled
     """``a . (vx, vy, wz)`` (``g_i . u``, ``h_i . u`` of TW-1), fused."""
     return fma(a[2], wz, fma(a[1], vy, a[0] * vx))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _assemble(g, h, a, b, c):  # pragma: no cover - compiled
     return fma(a, g[0], b * h[0]), fma(a, g[1], b * h[1]), fma(a, g[2], fma(b, h[2], c))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _bias_i(gu, hu, wz, p):  # pragma: no cover - compiled
     """Module share ``psidot_i (k_w (h.u) g - k_z (g.u) h)`` of c (TW-3), as (a, b, c)."""
     psid = fma(hu, p[P_INVD], -wz)  # TW-1 steering rate
     return psid * p[P_KW] * hu, -psid * p[P_KZ] * gu, 0.0
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _friction_i(gu, hu, wz, n_i, p):  # pragma: no cover - compiled
     """Module share of Q_f (TW-4) as (a, b, c): rolling resistance ``-mu_r N_i sgn_s(g.u) g``,
     pivot scrub ``-mu_p N_i sgn_s(rho h.u / d) h / d``, viscous joints
@@ -175,13 +175,13 @@ def _friction_i(gu, hu, wz, n_i, p):  # pragma: no cover - compiled
     return -roll - p[P_BD] * thd * invr, -scrub - visc_s * invd, visc_s
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _jt_tau_i(tau_drive, tau_steer, p):  # pragma: no cover - compiled
     """Module share of ``J^T tau`` as (a, b, c): ``tau_d g / r + tau_s (h / d - e_3)``."""
     return tau_drive * p[P_INVR], tau_steer * p[P_INVD], -tau_steer
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def jacobian_rows(g, h, p):  # pragma: no cover - compiled
     """Module i's two rows of J (TW-1): drive ``g_i / r``, steer ``h_i / d - e_3``."""
     invr = p[P_INVR]
@@ -190,7 +190,7 @@ def jacobian_rows(g, h, p):  # pragma: no cover - compiled
             (h[0] * invd, h[1] * invd, h[2] * invd - 1.0))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def mass(cs, p):  # pragma: no cover - compiled
     """Upper triangle (m00, m01, m02, m11, m12, m22) of M(psi), docs/physics/three-wheel.md TW-3."""
     m = (p[P_M0], p[P_M0 + 1], p[P_M0 + 2], p[P_M0 + 3], p[P_M0 + 4], p[P_M0 + 5])  # M_0
@@ -201,7 +201,7 @@ def mass(cs, p):  # pragma: no cover - compiled
     return m
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     """Coriolis/centripetal term c(psi, u) of docs/physics/three-wheel.md TW-3
     (three-wheel paper (26))."""
@@ -220,7 +220,7 @@ def bias(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     return c0, c1, c2
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def friction(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     """Generalized friction Q_f(psi, u) of docs/physics/three-wheel.md TW-4."""
     n = loads(cs, p)
@@ -239,7 +239,7 @@ def friction(cs, vx, vy, wz, p):  # pragma: no cover - compiled
     return q0, q1, q2
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def friction_jac_rest(cs, p):  # pragma: no cover - compiled
     """Upper triangle of ``dQ_f/du`` at ``u = 0`` (symmetric, negative semi-definite):
     ``-sum_i [mu_r N_i s' g g^T + mu_p N_i s' (rho / d^2) h h^T + J_i^T B_i J_i]`` with
@@ -262,7 +262,7 @@ def friction_jac_rest(cs, p):  # pragma: no cover - compiled
     return e[0], e[1], e[2], e[3], e[4], e[5]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def solve3(m, f0, f1, f2):  # pragma: no cover - compiled
     """Solve the symmetric 3x3 system ``M a = f`` by cofactors (M is positive definite)."""
     m00, m01, m02, m11, m12, m22 = m
@@ -327,13 +327,13 @@ def _deriv(x, u, p, applied):  # pragma: no cover - compiled
             psid1, psid2, psid3, thd1, thd2, thd3)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def deriv_block(x, u, p):  # pragma: no cover - compiled
     """The state derivative as a 12-tuple with ideal motors (the joints get ``u``)."""
     return _deriv(x, u, p, ideal_applied)
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def deriv_block_dc(x, u, p):  # pragma: no cover - compiled
     """The state derivative as a 12-tuple with DC motors (models/motor.py)."""
     return _deriv(x, u, p, dc_applied)
@@ -353,7 +353,7 @@ def deriv_one_dc(x, u, p, out):  # pragma: no cover - compiled
         out[j] = d[j]
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t(x, k, u, p):  # pragma: no cover - compiled
     """Motor power ``tau . qdot`` (W) of ideal motors at a state whose derivative is ``k``: the
     derivative holds the TW-1 joint rates (TW-5 order), ``k[9 + i]`` drive and ``k[6 + i]``
@@ -362,7 +362,7 @@ def power_t(x, k, u, p):  # pragma: no cover - compiled
         u[2], k[11], fma(u[1], k[10], u[0] * k[9])))))
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
     """Power the DC motors draw (W): the electrical power ``sum V i`` (models/motor.py) at the
     joint rates of ``k`` (as :func:`power_t`), which the environments' energy integral then
@@ -375,7 +375,7 @@ def power_t_dc(x, k, u, p):  # pragma: no cover - compiled
     return mech if mode == 0.0 else el
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def joint_rates(x, p):  # pragma: no cover - compiled
     """The six joint rates (rad/s) in motor order, the bits of :func:`deriv_block`'s."""
     cs = trig(x[6], x[7], x[8])
@@ -409,7 +409,7 @@ def k_motor(X, U, p, out):  # pragma: no cover - compiled
             out[k, 3, j] = p[o + M_R] * i + e  # V = R_w i + e
 
 
-@njit(cache=True, inline="always")
+@llvm_inline
 def _put_sym3(out, upper):  # pragma: no cover - compiled
     """Write the symmetric 3x3 matrix whose upper triangle is
     ``upper = (a00, a01, a02, a11, a12, a22)`` into ``out``."""
