@@ -355,6 +355,8 @@ def readme_summary(rows: Sequence[dict[str, str]], recipes: dict[str, str] | Non
     per: dict[str, list[tuple[bool, bool, int]]] = {}
     for (name, _algo, _steps, _eps), rs in sorted(_groups(rows).items()):
         task = name.split("-")[1] if "-" in name else "?"
+        if name.endswith("-robust"):  # trained and scored under the medium perturbation level
+            task += ", robust (at medium)"
         rms = any(parse_number(r.get("agent_rms")) is not None for r in rs)
         per.setdefault(task, []).append((_targets_cell(name, rs, t) == "met",
                                          _targets_cell(name, [_worst(rs, rms)], t) == "met",
