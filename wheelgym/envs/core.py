@@ -614,7 +614,10 @@ class WheelCore:
             a = a.astype(np.float64, copy=False)
             if a.shape != self.A.shape:
                 raise ValueError(f"action must have shape {self.A.shape}, got {np.shape(actions)}")
-        sent = a  # what the policy sent (action_history)
+        sent = a  # what the policy sent (action_history), checked before anything moves: the
+        # perturbation's dropped entries could hide a non-finite one from the kernels' check
+        if self.n_history and not np.all(np.isfinite(sent)):
+            raise ValueError("action must be finite (got NaN or inf)")
         if self.faults is not None:  # the perturbation's action noise, drops, stuck entries
             rows = self.all_rows if active is None else np.flatnonzero(active)
             self.faults.draw(rows, self.rngs)
@@ -652,16 +655,14 @@ class WheelCore:
             self._noise(self.all_rows if active is None else np.flatnonzero(active))
         if self.faults is not None:
             D = self.task_obs_dim
-            self.faults.observations(self.obs[:, :D] if self.n_history else self.obs, rows,
-                                     self.obs_low[:D], self.obs_high[:D])
+            self.faults.observations(self.obs[:, :D], rows, self.obs_low[:D],
+                                     self.obs_high[:D])
         if self.n_history:
             self._push_history(sent)
         return self.obs, self.reward, self.term, self.info_buffers
 
     def _push_history(self, sent: np.ndarray) -> None:
         """``action_history``: the sent actions (clipped) become the newest entries."""
-        if not np.all(np.isfinite(sent)):  # (the step raised before for a non-finite one)
-            raise ValueError("action must be finite (got NaN or inf)")
         h, ad = self._hist, self.action_dim
         h[:, ad:] = h[:, :-ad].copy()
         np.clip(sent, -1.0, 1.0, out=h[:, :ad])
