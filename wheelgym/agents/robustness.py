@@ -48,7 +48,8 @@ from wheelgym.envs.baseline import baseline
 from wheelgym.envs.perturbation import LEVELS, Perturbation
 
 __all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "applicable_axes", "sweep",
-           "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT"]
+           "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT", "fails",
+           "SUCCESS_MIN", "RMS_FACTOR"]
 
 #: Where ``wheelgym robustness`` writes by default (CSV and figures).
 DEFAULT_OUT = resources.results_dir("robustness")
@@ -398,6 +399,21 @@ def summary_table(csv_path: str | Path, targets: Sequence[str] | None = None) ->
     return "\n".join(lines)
 
 
+#: Goal: a policy holds a level while its success is at least this (%).
+SUCCESS_MIN = 90.0
+#: Track: a policy holds a level while its RMS error is at most this times its nominal RMS.
+RMS_FACTOR = 2.0
+
+
+def fails(row: dict[str, str], nominal_rms: float, track: bool) -> bool:
+    """Whether a policy's CSV ``row`` is past the benchmark's criterion: success under
+    :data:`SUCCESS_MIN` (goal), or an RMS error over :data:`RMS_FACTOR` times the policy's
+    own ``nominal_rms`` (track)."""
+    if track:
+        return not _num(row["rms"]) <= RMS_FACTOR * nominal_rms
+    return not _num(row["success"]) >= SUCCESS_MIN
+
+
 def _first_failure(axis: Axis, pts: dict[str, dict[str, str]], track: bool) -> str:
     lv = [str(x) for x in axis.levels]
     nominal = {"combined": "none"}.get(axis.name)
@@ -408,9 +424,7 @@ def _first_failure(axis: Axis, pts: dict[str, dict[str, str]], track: bool) -> s
     ref = _num(pts[nominal]["rms"])
 
     def bad(r: dict[str, str]) -> bool:
-        if track:
-            return not _num(r["rms"]) <= 2.0 * ref
-        return not _num(r["success"]) >= 90.0
+        return fails(r, ref, track)
 
     if bad(pts[nominal]):
         return "nominal"

@@ -17,17 +17,20 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from wheelgym.agents.robustness import POLICIES, read_rows, summary_table
+from wheelgym.agents.robustness import (
+    POLICIES,
+    RMS_FACTOR,
+    SUCCESS_MIN,
+    fails,
+    read_rows,
+    summary_table,
+)
 from wheelgym.registration import ENV_CLASSES
 
-__all__ = ["COMBINED", "falls_at", "render_page", "write_page", "SUCCESS_MIN", "RMS_FACTOR"]
+__all__ = ["COMBINED", "falls_at", "render_page", "write_page"]
 
 #: The combined levels, the nominal first (``wheelgym.envs.perturbation.LEVELS``).
 COMBINED = ("none", "easy", "medium", "hard")
-#: Goal: a policy holds a level while its success is at least this (%).
-SUCCESS_MIN = 90.0
-#: Track: a policy holds a level while its RMS error is at most this times its nominal RMS.
-RMS_FACTOR = 2.0
 _SHOWN = ("agent", "baseline-nom", "baseline-true")
 
 
@@ -57,9 +60,7 @@ def falls_at(rows: Sequence[dict[str, str]], policy: str, track: bool) -> str:
         r = comb.get((policy, level))
         if r is None:
             continue
-        bad = (not _num(r["rms"]) <= RMS_FACTOR * ref) if track else (
-            not _num(r["success"]) >= SUCCESS_MIN)
-        if bad:
+        if fails(r, ref, track):
             return f"{'nominal' if level == 'none' else level} ({_value(r, track)})"
     return "beyond hard"
 
@@ -121,9 +122,7 @@ def _robust_met(comb: dict[tuple[str, str], dict[str, str]], track: bool) -> str
     med, none = comb.get(("agent", "medium")), comb.get(("agent", "none"))
     if med is None or none is None:
         return "n/a"
-    ok = (_num(med["rms"]) <= RMS_FACTOR * _num(none["rms"])) if track else (
-        _num(med["success"]) >= SUCCESS_MIN)
-    return "met" if ok else "**missed**"
+    return "**missed**" if fails(med, _num(none["rms"]), track) else "met"
 
 
 def _per_agent(name: str, rows: list[dict[str, str]], csv_path: Path, fig_rel: str) -> list[str]:
