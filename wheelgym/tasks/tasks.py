@@ -9,12 +9,14 @@ from ``rngs[i]``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 
+from wheelgym._numba_cache import entry_point
 from wheelgym.kinematics.car_tracking import min_turning_radius
 from wheelgym.kinematics.references import (
     Circle,
@@ -173,6 +175,11 @@ class Task:
         core's blocks; other rows are not touched."""
         raise NotImplementedError
 
+    def evaluate_all(self) -> Callable[[], None]:
+        """``evaluate()`` (every row) as a callable without arguments; a task whose kernel
+        reads only its own and the core's buffers binds its compiled entry point to them."""
+        return self.evaluate
+
 
 class GoalTask(Task):
     """Reach a goal pose; see :class:`wheelgym.envs.WheelEnv` for the tables."""
@@ -248,6 +255,14 @@ class GoalTask(Task):
         k = self._k_all if rows is None else k_goal
         k(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
           self.ranges, self.clear, self.cfg, c.fclip, self.W, c.obs, c.terms)
+
+    def evaluate_all(self) -> Callable[[], None]:
+        if type(self).evaluate is not GoalTask.evaluate:  # (navigate senses first)
+            return self.evaluate
+        c = self.core
+        args = (c.all_rows, c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.clear,
+                self.cfg, c.fclip, self.W, c.obs, c.terms)
+        return functools.partial(entry_point(self._k_all, *args), *args)
 
     def target_pose(self) -> np.ndarray:
         return self.goal
