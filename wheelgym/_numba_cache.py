@@ -11,9 +11,6 @@ this only matters to someone editing the package.
 
 :func:`announce` prints one line when a long compile starts (``wheelgym: compiling the
 ThreeWheel kernels (first use only, ~10 s)``), and nothing when the kernels load from the cache.
-
-:func:`entry_point` is a kernel's compiled entry point for fixed argument types (calls that
-skip the dispatcher's type resolution).
 """
 
 from __future__ import annotations
@@ -21,10 +18,7 @@ from __future__ import annotations
 import glob
 import logging
 import os
-from collections.abc import Callable
-from typing import Any
 
-import numba
 from numba.core import event
 
 
@@ -111,17 +105,3 @@ class _Notice(event.Listener):
 
     def on_end(self, ev: event.Event) -> None:
         pass
-
-
-def entry_point(kernel: Any, *args: Any) -> Callable[..., Any]:
-    """``kernel``'s compiled entry point for exactly the types of ``args`` where numba has
-    compiled it for them, else ``kernel`` itself.
-
-    The entry point skips the dispatcher's resolution of the argument types (~0.2 us of each
-    call at N = 1) and checks no argument, so it is only for calls on arguments of these
-    types: the core's and the tasks' own buffers."""
-    overloads = getattr(kernel, "overloads", None)
-    if overloads is None:  # not a numba dispatcher (e.g. a Python wrapper)
-        return kernel
-    cres = overloads.get(tuple(numba.typeof(a) for a in args))
-    return kernel if cres is None else cres.entry_point

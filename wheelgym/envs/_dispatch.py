@@ -66,4 +66,3 @@ class FasterKernel:
                 self.interval = min(2 * self.interval, self.probe_max)
             self.countdown = self.interval
         return out
-

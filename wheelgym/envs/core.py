@@ -22,13 +22,12 @@ batches), so an episode of any length sees it move on.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numba
 import numpy as np
 
-from wheelgym._numba_cache import entry_point
 from wheelgym.envs._dispatch import FasterKernel
 from wheelgym.envs.actuator import k_delay, k_lag
 from wheelgym.envs.config import MAX_CTRL_DT, MAX_SUBSTEPS, EnvConfig
@@ -46,6 +45,7 @@ from wheelgym.envs.robots.body import (
     k_twist_command,
     layout,
 )
+from wheelgym.integrators import entry_point
 from wheelgym.registration import DEFAULT_HORIZON
 from wheelgym.tasks.kernels import k_noise
 from wheelgym.tasks.tasks import TASKS, NavigateTask, Task, TrackTask
@@ -266,9 +266,9 @@ class WheelCore:
         self.step_draws = self.obs_noise > 0 or self.faults is not None
         self.rngs: Sequence[np.random.Generator] | None = None
         self._track = isinstance(self.task, TrackTask)
-        #: No perturbation, delay, lag, controller, history or noise: a step is the kernels
-        #: alone (the step's Python around them is ~1 us of a single env's ~8 us step).
-        self._plain = not (self.faults is not None or self._delay or self._lag or self._velocity
+        #: No perturbation, delay, lag, history or noise: a step is the kernels alone (with
+        #: the velocity mode's controller), skipping the other stages in one test.
+        self._plain = not (self.faults is not None or self._delay or self._lag
                            or self.n_history or self.obs_noise > 0)
 
     # ------------------------------------------------------------------ views and copies
@@ -324,8 +324,7 @@ class WheelCore:
         self._k_serial = ks
         self._k_step = FasterKernel(ks, kp) if self.threaded else ks
         #: A plain step's compiled calls on the core's own buffers (:meth:`_resolve_direct`).
-        self._direct: tuple[Callable[..., Any], Callable[..., Any], Callable[[], None]] | None \
-            = None
+        self._direct: tuple[Any, ...] | None = None
 
     def info_columns(self) -> tuple[tuple[tuple[str, slice | int], ...],
                                     tuple[tuple[str, int, bool], ...]]:
@@ -631,24 +630,27 @@ class WheelCore:
         """:meth:`step` on actions ``a`` already float64 of shape ``(N, action_dim)`` (the
         single env passes its own buffer)."""
         plain = self._plain
-        if plain and a is self.A and self._direct is not None:  # the actions in A (single env)
-            ks, kp, ev = self._direct
+        direct = plain and a is self.A  # the actions in A (the single env's)
+        if direct and self._direct is not None:
+            ks, kp, ev, ctl = self._direct
         else:
-            ks, kp, ev = self._k_step, k_step_power, self.task.evaluate
-        A = a if plain else self._inputs(a, active)
+            ks, kp, ev, ctl = self._k_step, k_step_power, self.task.evaluate, None
+        if plain:
+            A = self._control(a, ctl) if self._velocity else a
+        else:
+            A = self._inputs(a, active)
         if not ks(self.X, A, self.LH, self.P, self.h, self.n_sub, self.Xo, self.B, self.F):
             raise ValueError("action must be finite (got NaN or inf)")
         kp(self.B, self._ecol, self._e0, self._inv_dt, self.pel, self.steps)
         if self._track:
             self.task.advance()
-        if not plain:
-            if self._velocity:
-                k_or_flags(self.F, self._csat, self._clipped)
-            if self._lag:  # a clipped command saturates (the filtered input never exceeds 1)
-                k_or_flags(self.F, self._lag_sat, self._lag_sat)
+        if self._velocity:
+            (k_or_flags if ctl is None else ctl[3])(self.F, self._csat, self._clipped)
+        if self._lag:  # a clipped command saturates (the filtered input never exceeds 1)
+            k_or_flags(self.F, self._lag_sat, self._lag_sat)
         self.X, self.Xo = self.Xo, self.X
         ev()
-        if plain and a is self.A and self._direct is None:  # compiled now: resolve them once
+        if direct and self._direct is None:  # compiled now: resolve the entry points once
             self._direct = self._resolve_direct()
         if not plain:
             if self.obs_noise > 0:
@@ -662,16 +664,35 @@ class WheelCore:
                 self._push_history(a)
         return self.obs, self.reward, self.term, self.info_buffers
 
-    def _resolve_direct(self) -> tuple[Callable[..., Any], Callable[..., Any],
-                                       Callable[[], None]]:
-        """A plain step's three compiled calls (physics, power, the task's evaluation) as
-        entry points for the core's own buffers, the actions in ``A`` (the single env's): a
-        call then skips numba's resolution of its argument types (~0.2 us each at N = 1)."""
+    def _resolve_direct(self) -> tuple[Any, ...]:
+        """A plain step's compiled calls (physics, power, the task's evaluation; the velocity
+        mode's four) as entry points for the core's own buffers, the actions in ``A`` (the
+        single env's): a call then skips numba's resolution of its argument types (~0.2 us
+        each at N = 1)."""
         ks = entry_point(self._k_step, self.X, self.A, self.LH, self.P, self.h, self.n_sub,
                          self.Xo, self.B, self.F)
         kp = entry_point(k_step_power, self.B, self._ecol, self._e0, self._inv_dt, self.pel,
                          self.steps)
-        return ks, kp, self.task.evaluate_all()
+        ctl = None
+        if self._velocity:
+            ctl = (entry_point(k_twist_command, self.A, self.twist_max, self._cmd,
+                               self._clipped),
+                   entry_point(self._ctl_kernel, self.X, self._cmd, *self._ctl_args, self._tau,
+                               self._csat),
+                   entry_point(k_torque_ratio, self._tau, self.LH, self._anorm),
+                   entry_point(k_or_flags, self.F, self._csat, self._clipped))
+        return ks, kp, self.task.evaluate_all(), ctl
+
+    def _control(self, a: np.ndarray, ctl: tuple[Any, ...] | None) -> np.ndarray:
+        """Velocity mode: the twist commands ``a`` through the controller, as normalised
+        torques (``ctl``: the direct calls of :meth:`_resolve_direct`, or None)."""
+        kt, kc, kr = (k_twist_command, self._ctl_kernel, k_torque_ratio) if ctl is None \
+            else ctl[:3]
+        if not kt(a, self.twist_max, self._cmd, self._clipped):
+            raise ValueError("action must be finite (got NaN or inf)")
+        kc(self.X, self._cmd, *self._ctl_args, self._tau, self._csat)
+        kr(self._tau, self.LH, self._anorm)
+        return self._anorm
 
     def _inputs(self, a: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """The kernel's normalised inputs from the sent actions ``a``: the perturbation's action
@@ -689,11 +710,7 @@ class WheelCore:
                 raise ValueError("action must be finite (got NaN or inf)")
             a = self._da
         if self._velocity:
-            if not k_twist_command(a, self.twist_max, self._cmd, self._clipped):
-                raise ValueError("action must be finite (got NaN or inf)")
-            self._ctl_kernel(self.X, self._cmd, *self._ctl_args, self._tau, self._csat)
-            k_torque_ratio(self._tau, self.LH, self._anorm)
-            a = self._anorm
+            a = self._control(a, None)
         if self._lag:  # actuator_lag: the filtered inputs
             if not k_lag(a, self._lag_u, self._lag_alpha, self._lag_sat):
                 raise ValueError("action must be finite (got NaN or inf)")

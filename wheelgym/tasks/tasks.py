@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from wheelgym._numba_cache import entry_point
+from wheelgym.integrators import entry_point
 from wheelgym.kinematics.car_tracking import min_turning_radius
 from wheelgym.kinematics.references import (
     Circle,
