@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import functools
 import os
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -286,6 +288,31 @@ renderer is not copied (a copy opens its own on ``render()``).
 """
 
 
+@functools.cache
+def _info_builder(vectors: tuple[str, ...], numbers: tuple[tuple[str, int], ...],
+                  core_numbers: tuple[str, ...], flags: tuple[tuple[str, int, bool], ...],
+                  terms: tuple[tuple[str, int], ...]) -> Callable[..., dict[str, Any]]:
+    """``build(vec, b, core, f, t)``: the step info as one dict display, ~0.6 us faster than
+    filling it key by key (a sixth of a kinematic robot's step). ``vec``: the vectors' row
+    views (copied), ``b``: row 0 of the float block (``numbers``: name, column), ``core``: the
+    ``(N,)`` arrays of ``core_numbers``, ``f``: row 0 of the flag block as a list (``flags``:
+    name, column, negate), ``t``: row 0 of the reward terms (``terms``: name, column). Keys in
+    that order, ``reward_terms`` last."""
+    items = [f"{n!r}: v{k}.copy()" for k, n in enumerate(vectors)]
+    items += [f"{n!r}: b[{col}]" for n, col in numbers]
+    items += [f"{n!r}: c{k}[0]" for k, n in enumerate(core_numbers)]
+    items += [f"{n!r}: f[{col}] != {neg}" for n, col, neg in flags]
+    rt = ", ".join(f"{n!r}: t[{col}]" for n, col in terms)
+    unpack = "".join(f"    {', '.join(f'{p}{k}' for k in range(len(seq)))}, = {src}\n"
+                     for p, seq, src in (("v", vectors, "vec"), ("c", core_numbers, "core"))
+                     if seq)
+    src = (f"def build(vec, b, core, f, t):\n{unpack}    return {{"
+           + ", ".join(items) + f", 'reward_terms': {{{rt}}}}}\n")
+    scope: dict[str, Any] = {}
+    exec(src, scope)
+    return scope["build"]
+
+
 def goal_space(core: WheelCore, obs_space: spaces.Box) -> spaces.Dict:
     """The ``goal_conditioned`` observation space of ``core``'s task (one env)."""
     high = core.task.goal_high().astype(np.float32)
@@ -340,11 +367,17 @@ class WheelEnv(gym.Env):
         self._A0 = c.A[0]  # the actions go into the core's buffer (its direct calls)
         self._obs0 = c.obs[0]
         self._terms0 = c.terms[0]
-        self._tsel = np.array(self._tidx, dtype=np.intp)
+        self._zero_terms = np.zeros_like(self._terms0)  # (a reset's reward terms)
         self._f0 = c.F[0]
-        self._info_vec = tuple((n, v[0]) for n, v in c.info_vectors)
-        self._info_num = (*c.info_numbers, *c.info_core)
-        self._info_flag = c.info_columns()[1]
+        self._b0 = c.B[0]
+        self._info_vec = tuple(v[0] for _, v in c.info_vectors)
+        self._info_core = tuple(v for _, v in c.info_core)
+        floats, flags = c.info_columns()
+        self._info_build = _info_builder(
+            tuple(n for n, _ in c.info_vectors),
+            tuple((n, col) for n, col in floats if not isinstance(col, slice)),
+            tuple(n for n, _ in c.info_core), flags,
+            tuple(zip(self._names, self._tidx, strict=True)))
 
     # ------------------------------------------------------------------ copies
     def __getstate__(self) -> dict[str, Any]:
@@ -352,6 +385,7 @@ class WheelEnv(gym.Env):
         generator); the renderer (a window, fonts) is left out and rebuilt on demand."""
         state = self.__dict__.copy()
         state["_renderer"] = None
+        del state["_info_build"]  # (generated code: _bind builds it again)
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -471,19 +505,10 @@ class WheelEnv(gym.Env):
         """The step info (``core.INFO_KEYS``, through the core's views of its blocks): vectors
         as copies, numbers as NumPy ``float64`` scalars (a dtype, as TorchRL's info reader needs),
         flags as Python bools (``SyncVectorEnv`` batches ``np.bool_`` into object arrays), the
-        reward terms as a dict of ``float64`` (zeros at a reset)."""
-        info: dict[str, Any] = {}
-        for n, v in self._info_vec:
-            info[n] = v.copy()
-        for n, v in self._info_num:
-            info[n] = v[0]
-        f = self._f0.tolist()
-        for n, col, neg in self._info_flag:
-            info[n] = f[col] != neg
-        # (zip's strict=True costs ~0.5 us here; the lengths match by construction)
-        info["reward_terms"] = (dict.fromkeys(self._names, _ZERO) if at_reset else
-                                dict(zip(self._names, self._terms0[self._tsel], strict=False)))
-        return info
+        reward terms as a dict of ``float64`` (zeros at a reset); one dict display generated
+        for the env's keys and columns (:func:`_info_builder`)."""
+        return self._info_build(self._info_vec, self._b0, self._info_core, self._f0.tolist(),
+                                self._zero_terms if at_reset else self._terms0)
 
     def _task_info(self) -> dict[str, Any]:
         c = self.core
