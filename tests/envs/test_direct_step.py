@@ -32,7 +32,7 @@ def test_direct_step_bits_equal_dispatch(robot, mode, task):
             assert getattr(core, name).tobytes() == getattr(tcore, name).tobytes(), name
     assert tcore._direct is None  # the twin never stepped on its own A
     ks, kp, ev, ctl = core._direct
-    calls = [ks, kp, *(ctl or ())] + ([ev.func] if task == "goal" else [])
+    calls = [ks, kp, ev.func, *(ctl or ())]
     assert all(type(f).__name__ == "builtin_function_or_method" for f in calls)
     with pytest.raises(ValueError, match="finite"):
         env.step(np.full(env.action_space.shape, np.nan, dtype=np.float32))

@@ -887,6 +887,14 @@ class TrackTask(Task):
                 self.kbase, self.L, self.preview_steps, self.cfg, c.fclip, self.W, c.obs,
                 c.terms)
 
+    def evaluate_all(self) -> Callable[[], None]:
+        if type(self).evaluate is not TrackTask.evaluate:
+            return self.evaluate
+        c = self.core
+        args = (c.all_rows, c.B, c.F, c.m, self.ref, self.kstep, self.kbase, self.L,
+                self.preview_steps, self.cfg, c.fclip, self.W, c.obs, c.terms)
+        return functools.partial(entry_point(k_track, *args), *args)
+
     def advance(self) -> None:
         """Move every row's reference index one control step on (before integrating), and the
         windows of the rows whose previews would leave theirs."""
