@@ -136,9 +136,9 @@ def bench_maps(robots: list[str], steps: int, repeats: int) -> None:
 
 def bench_breakdown(robots: list[str], steps: int, repeats: int) -> None:
     """Where a single env's step goes (goal task, every action mode): ``env.step`` through
-    ``gym.make``, the core's step (physics, controller, task kernel), the compiled physics
-    kernel alone, and Pendulum-v1's step, each the median of ``repeats`` runs of ``steps``
-    calls, interleaved round by round."""
+    ``gym.make``, the core's step (physics, controller, task kernel) on its own action buffer
+    as the env calls it, the compiled physics kernel alone, and Pendulum-v1's step, each the
+    median of ``repeats`` runs of ``steps`` calls, interleaved round by round."""
     print("| robot, action mode | env.step us | physics kernel us | WheelCore.step us | "
           "wrappers, checks, info us | Pendulum-v1 us | ratio |")
     print("|---|---:|---:|---:|---:|---:|---:|")
