@@ -208,7 +208,8 @@ class WheelCore:
         # physical input bounds per row: low then high (LO, HI are views)
         self.m = m
         self.LH = np.tile(np.concatenate([lo, hi]), (N, 1))
-        self.A = np.zeros((N, self.action_dim))  # the normalised actions' shape
+        # the actions' shape; the single env writes its actions here (the direct calls of _step)
+        self.A = np.zeros((N, self.action_dim))
         self._init_actuator()
         if self._velocity:
             #: the true controller model's per-row torque limits (contiguous copy of HI)

@@ -177,7 +177,8 @@ class Task:
 
     def evaluate_all(self) -> Callable[[], None]:
         """``evaluate()`` (every row) as a callable without arguments; a task whose kernel
-        reads only its own and the core's buffers binds its compiled entry point to them."""
+        reads only its own and the core's buffers (never reassigned, only written in place)
+        binds its compiled entry point to them (the single env's step, ``WheelCore._step``)."""
         return self.evaluate
 
 
