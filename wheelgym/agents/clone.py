@@ -174,7 +174,7 @@ def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
 def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
                 stop: Callable[[], bool] | None = None,
                 actor: Callable[[np.ndarray], np.ndarray] | None = None,
-                internal_force: bool = False) -> Demonstration:
+                internal_force: bool = False, planner: str | None = None) -> Demonstration:
     """Label ``steps`` environment steps of ``venv`` with the analytic baseline's actions.
 
     The baseline drives, or ``actor`` (observations -> actions, e.g. the clone's deterministic
@@ -187,12 +187,13 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
     cut). ``stop`` (checked before each vector step) ends the demonstration early: fewer rows.
     ``internal_force`` records each row's :func:`internal_force_rows` too (read before the
     step, like the label). Raises ``ValueError`` when the envs have no baseline (or, with
-    ``internal_force``, no internal force).
+    ``internal_force``, no internal force). ``planner``: the planning baseline's planner
+    (``wheelgym.baseline(env, planner=...)``, navigate only) labels instead of the reactive one.
     """
     from wheelgym.envs.baseline import baseline
 
     try:
-        policy = baseline(venv)  # it finds the env's core under SB3's wrappers
+        policy = baseline(venv, planner=planner)  # it finds the env's core under SB3's wrappers
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     if internal_force:
@@ -340,7 +341,8 @@ def force_error(model: Any, obs: np.ndarray, actions: np.ndarray,
 def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
                    epochs: int | None = None,
-                   internal_force: float | None = None, lr: float = LR) -> dict[str, Any]:
+                   internal_force: float | None = None, lr: float = LR,
+                   planner: str | None = None) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -357,7 +359,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     ``clone_internal_force``) weighs the internal force of the action error in the fit
     (:func:`fit_mean`); the figures then add ``internal_force_weight`` and the mean
     :func:`force_error` before and after (``force_error_before``, ``force_error_after``).
-    ``lr``: Adam's learning rate of the fits (default :data:`LR`).
+    ``lr``: Adam's learning rate of the fits (default :data:`LR`). ``planner``: the planning
+    baseline (``wheelgym.baseline(env, planner=planner)``, navigate only) is the teacher.
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -366,9 +369,10 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     gamma = float(model.gamma)
     per = max(1, steps // rounds)
     forces = bool(internal_force)
-    demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces)
+    demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
+                       planner=planner)
     obs, actions, returns, rows = demo.obs, demo.actions, demo.returns, demo.force_rows
-    log = [{"driver": "baseline", **_episodes(demo)}]
+    log = [{"driver": "planner" if planner else "baseline", **_episodes(demo)}]
     before = mean_error(model, obs, actions)
     f_before = force_error(model, obs, actions, rows) if forces else None
     v_before = value_error(model, obs, returns)
@@ -376,7 +380,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     for k in range(rounds):
         if k:  # all rows so far, and the new ones
             demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
-                               actor=lambda o: model.predict(o, deterministic=True)[0])
+                               actor=lambda o: model.predict(o, deterministic=True)[0],
+                               planner=planner)
             log.append({"driver": "clone", **_episodes(demo),
                         "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
             obs = np.concatenate([obs, demo.obs])

@@ -29,7 +29,9 @@ rl        the algorithm's own training for the RL Zoo block's ``n_timesteps`` (t
 ========= =========================================================================================
 
 Teachers of ``imitate`` (:data:`TEACHERS`): ``baseline`` (the analytic baseline drives the first
-round, the clone the later ones, the baseline labels every state) and
+round, the clone the later ones, the baseline labels every state), ``planner`` (the same with the
+planning baseline, ``wheelgym.baseline(env, planner="auto")``: navigate only;
+docs/topics/planning.md) and
 ``self_without_internal_force`` (the policy as it is, its actions less their internal force,
 labels the states it reaches: torque mode on a robot with an internal force, the native vector
 env).
@@ -52,6 +54,7 @@ from typing import Any, ClassVar
 __all__ = [
     "STAGES",
     "TEACHERS",
+    "BASELINE_TEACHERS",
     "LEGACY_KEYS",
     "Imitate",
     "RL",
@@ -63,7 +66,10 @@ __all__ = [
 ]
 
 #: The teachers of an ``imitate`` stage.
-TEACHERS: tuple[str, ...] = ("baseline", "self_without_internal_force")
+TEACHERS: tuple[str, ...] = ("baseline", "planner", "self_without_internal_force")
+#: The teachers that are a baseline policy (:func:`wheelgym.agents.clone.clone_baseline`), with
+#: the ``planner`` argument of :func:`wheelgym.baseline` each passes.
+BASELINE_TEACHERS: dict[str, str | None] = {"baseline": None, "planner": "auto"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -153,7 +159,8 @@ class Imitate:
     """
 
     teacher: str = _key(_teacher, "string", "required",
-                        "who labels the states: `baseline` (the analytic baseline) or "
+                        "who labels the states: `baseline` (the analytic baseline), `planner` "
+                        "(the planning baseline; navigate only) or "
                         "`self_without_internal_force` (the policy itself, its actions less "
                         "their internal force)", required=True)
     steps: int = _key(_pos_int, "integer >= 1", "required",
@@ -177,13 +184,13 @@ class Imitate:
     @property
     def status(self) -> str:
         """run.json's ``status`` while the stage runs."""
-        return "cloning" if self.teacher == "baseline" else "distilling"
+        return "cloning" if self.teacher in BASELINE_TEACHERS else "distilling"
 
     def resolved(self) -> dict[str, Any]:
         """``rounds``, ``epochs``, ``lr`` and ``internal_force`` with the teacher's defaults."""
         from wheelgym.agents import clone
 
-        base = self.teacher == "baseline"
+        base = self.teacher in BASELINE_TEACHERS
         return {
             "rounds": self.rounds or (1 if base else clone.DISTILL_ROUNDS),
             "epochs": self.epochs or clone.EPOCHS,
@@ -344,6 +351,8 @@ def legacy_form(stages: Sequence[Stage]) -> dict[str, Any] | None:
             if s.reward_schedule is not None:
                 out["reward_schedule"] = copy.deepcopy(s.reward_schedule)
             continue
+        if s.teacher == "planner":  # no flat key ever named it
+            return None
         names = _CLONE if s.teacher == "baseline" else _DISTILL
         if s.teacher in taken or (s.teacher == "baseline") == seen_rl or s.lr is not None:
             return None

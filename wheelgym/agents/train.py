@@ -394,14 +394,15 @@ def _first_pending(config: TrainConfig, model, records: list[dict[str, Any]]) ->
 def _imitate(config: TrainConfig, stage: Imitate, model, stop: _StopOnSignal) -> dict:
     """Run an ``imitate`` stage; its figures (``interrupted`` when a Ctrl-C ended it)."""
     from wheelgym.agents.clone import clone_baseline, distill_internal_force
+    from wheelgym.agents.pipeline import BASELINE_TEACHERS
 
     opts = stage.resolved()
     try:
-        if stage.teacher == "baseline":
+        if stage.teacher in BASELINE_TEACHERS:
             return clone_baseline(model, stage.steps, seed=config.seed,
                                   stop=lambda: stop.requested, rounds=opts["rounds"],
                                   epochs=opts["epochs"], internal_force=opts["internal_force"],
-                                  lr=opts["lr"])
+                                  lr=opts["lr"], planner=BASELINE_TEACHERS[stage.teacher])
         return distill_internal_force(model, stage.steps, rounds=opts["rounds"],
                                       weight=opts["internal_force"], epochs=opts["epochs"],
                                       seed=config.seed, lr=opts["lr"],
