@@ -49,7 +49,7 @@ from wheelgym.envs.perturbation import LEVELS, Perturbation
 
 __all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "applicable_axes", "sweep",
            "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT", "fails",
-           "SUCCESS_MIN", "RMS_FACTOR"]
+           "SUCCESS_MIN", "RMS_FACTOR", "csv_number"]
 
 #: Where ``wheelgym robustness`` writes by default (CSV and figures).
 DEFAULT_OUT = resources.results_dir("robustness")
@@ -292,7 +292,8 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
             "wall_s": time.perf_counter() - t_all, "target": name}
 
 
-def _num(v: str) -> float:
+def csv_number(v: str) -> float:
+    """A CSV cell as a float (NaN when empty or not a number)."""
     try:
         return float(v)
     except (TypeError, ValueError):
@@ -336,7 +337,7 @@ def plot(csv_path: str | Path, out: str | Path | None = None,
                 axis = AXES[ax_name]
                 lv = [str(x) for x in axis.levels]
                 for pol in POLICIES:
-                    pts = {r["level"]: _num(r[col]) for r in mine
+                    pts = {r["level"]: csv_number(r[col]) for r in mine
                            if r["axis"] == ax_name and r["policy"] == pol}
                     if not pts:
                         continue
@@ -410,8 +411,8 @@ def fails(row: dict[str, str], nominal_rms: float, track: bool) -> bool:
     :data:`SUCCESS_MIN` (goal), or an RMS error over :data:`RMS_FACTOR` times the policy's
     own ``nominal_rms`` (track)."""
     if track:
-        return not _num(row["rms"]) <= RMS_FACTOR * nominal_rms
-    return not _num(row["success"]) >= SUCCESS_MIN
+        return not csv_number(row["rms"]) <= RMS_FACTOR * nominal_rms
+    return not csv_number(row["success"]) >= SUCCESS_MIN
 
 
 def _first_failure(axis: Axis, pts: dict[str, dict[str, str]], track: bool) -> str:
@@ -421,7 +422,7 @@ def _first_failure(axis: Axis, pts: dict[str, dict[str, str]], track: bool) -> s
         nominal = next((v for v in lv if float(v) in (0.0, 1.0)), lv[0])
     if nominal not in pts:
         return "n/a"
-    ref = _num(pts[nominal]["rms"])
+    ref = csv_number(pts[nominal]["rms"])
 
     def bad(r: dict[str, str]) -> bool:
         return fails(r, ref, track)

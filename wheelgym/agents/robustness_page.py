@@ -21,6 +21,7 @@ from wheelgym.agents.robustness import (
     POLICIES,
     RMS_FACTOR,
     SUCCESS_MIN,
+    csv_number,
     fails,
     read_rows,
     summary_table,
@@ -34,19 +35,12 @@ COMBINED = ("none", "easy", "medium", "hard")
 _SHOWN = ("agent", "baseline-nom", "baseline-true")
 
 
-def _num(v: str) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return math.nan
-
-
 def _combined(rows: Sequence[dict[str, str]]) -> dict[tuple[str, str], dict[str, str]]:
     return {(r["policy"], r["level"]): r for r in rows if r["axis"] == "combined"}
 
 
 def _value(r: dict[str, str], track: bool) -> str:
-    return f"{1000 * _num(r['rms']):.0f} mm" if track else f"{_num(r['success']):.0f}%"
+    return f"{1000 * csv_number(r['rms']):.0f} mm" if track else f"{csv_number(r['success']):.0f}%"
 
 
 def falls_at(rows: Sequence[dict[str, str]], policy: str, track: bool) -> str:
@@ -55,7 +49,7 @@ def falls_at(rows: Sequence[dict[str, str]], policy: str, track: bool) -> str:
     comb = _combined(rows)
     if (policy, "none") not in comb:
         return "n/a"
-    ref = _num(comb[(policy, "none")]["rms"])
+    ref = csv_number(comb[(policy, "none")]["rms"])
     for level in COMBINED:
         r = comb.get((policy, level))
         if r is None:
@@ -113,16 +107,17 @@ def _at_medium(comb: dict[tuple[str, str], dict[str, str]], policy: str, track: 
     if med is None or none is None:
         return "n/a"
     if not track:
-        return f"{_num(med['success']):.0f}%"
-    ratio = _num(med["rms"]) / _num(none["rms"]) if _num(none["rms"]) > 0 else math.inf
-    return f"{ratio:.1f}x ({1000 * _num(med['rms']):.0f} mm)"
+        return f"{csv_number(med['success']):.0f}%"
+    rms, nominal = csv_number(med["rms"]), csv_number(none["rms"])
+    ratio = rms / nominal if nominal > 0 else math.inf
+    return f"{ratio:.1f}x ({1000 * rms:.0f} mm)"
 
 
 def _robust_met(comb: dict[tuple[str, str], dict[str, str]], track: bool) -> str:
     med, none = comb.get(("agent", "medium")), comb.get(("agent", "none"))
     if med is None or none is None:
         return "n/a"
-    return "**missed**" if fails(med, _num(none["rms"]), track) else "met"
+    return "**missed**" if fails(med, csv_number(none["rms"]), track) else "met"
 
 
 def _per_agent(name: str, rows: list[dict[str, str]], csv_path: Path, fig_rel: str) -> list[str]:
@@ -138,9 +133,9 @@ def _per_agent(name: str, rows: list[dict[str, str]], csv_path: Path, fig_rel: s
             if r is None:
                 cells.append("-")
             elif track:
-                cells.append(f"{_num(r['success']):.0f} / {1000 * _num(r['rms']):.1f}")
+                cells.append(f"{csv_number(r['success']):.0f} / {1000 * csv_number(r['rms']):.1f}")
             else:
-                cells.append(f"{_num(r['success']):.0f}")
+                cells.append(f"{csv_number(r['success']):.0f}")
         if any(c != "-" for c in cells):
             lines.append(f"| {pol} | " + " | ".join(cells) + " |")
     crit = (f"RMS > {RMS_FACTOR:g}x the policy's nominal RMS" if track

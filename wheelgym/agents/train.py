@@ -72,7 +72,7 @@ from wheelgym.agents.common import (
     wrap_normalize,
 )
 from wheelgym.agents.config import TrainConfig, load_config, load_run_config
-from wheelgym.agents.pipeline import RL, Imitate
+from wheelgym.agents.pipeline import BASELINE_TEACHERS, RL, Imitate
 
 __all__ = [
     "train",
@@ -394,7 +394,6 @@ def _first_pending(config: TrainConfig, model, records: list[dict[str, Any]]) ->
 def _imitate(config: TrainConfig, stage: Imitate, model, stop: _StopOnSignal) -> dict:
     """Run an ``imitate`` stage; its figures (``interrupted`` when a Ctrl-C ended it)."""
     from wheelgym.agents.clone import clone_baseline, distill_internal_force
-    from wheelgym.agents.pipeline import BASELINE_TEACHERS
 
     opts = stage.resolved()
     try:

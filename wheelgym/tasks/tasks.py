@@ -251,18 +251,22 @@ class GoalTask(Task):
                                           self.goal[i, 1] - poses[n, 1])
         return poses
 
-    def evaluate(self, rows: np.ndarray | None = None) -> None:
+    def _kernel_args(self, rows: np.ndarray) -> tuple[Any, ...]:
+        """The goal kernel's arguments for ``rows``."""
         c = self.core
-        k = self._k_all if rows is None else k_goal
-        k(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.goal, self.prev,
-          self.ranges, self.clear, self.cfg, c.fclip, self.W, c.obs, c.terms)
+        return (rows, c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.clear, self.cfg,
+                c.fclip, self.W, c.obs, c.terms)
+
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
+        if rows is None:
+            self._k_all(*self._kernel_args(self.core.all_rows))
+        else:
+            k_goal(*self._kernel_args(rows))
 
     def evaluate_all(self) -> Callable[[], None]:
         if type(self).evaluate is not GoalTask.evaluate:  # (navigate senses first)
             return self.evaluate
-        c = self.core
-        args = (c.all_rows, c.B, c.F, c.m, self.goal, self.prev, self.ranges, self.clear,
-                self.cfg, c.fclip, self.W, c.obs, c.terms)
+        args = self._kernel_args(self.core.all_rows)
         return functools.partial(entry_point(self._k_all, *args), *args)
 
     def target_pose(self) -> np.ndarray:
@@ -882,18 +886,19 @@ class TrackTask(Task):
                          last - (self.kstep + self.ahead))
         self._slack = int(slack.min())
 
-    def evaluate(self, rows: np.ndarray | None = None) -> None:
+    def _kernel_args(self, rows: np.ndarray) -> tuple[Any, ...]:
+        """The track kernel's arguments for ``rows``."""
         c = self.core
-        k_track(c.all_rows if rows is None else rows, c.B, c.F, c.m, self.ref, self.kstep,
-                self.kbase, self.L, self.preview_steps, self.cfg, c.fclip, self.W, c.obs,
-                c.terms)
+        return (rows, c.B, c.F, c.m, self.ref, self.kstep, self.kbase, self.L,
+                self.preview_steps, self.cfg, c.fclip, self.W, c.obs, c.terms)
+
+    def evaluate(self, rows: np.ndarray | None = None) -> None:
+        k_track(*self._kernel_args(self.core.all_rows if rows is None else rows))
 
     def evaluate_all(self) -> Callable[[], None]:
         if type(self).evaluate is not TrackTask.evaluate:
             return self.evaluate
-        c = self.core
-        args = (c.all_rows, c.B, c.F, c.m, self.ref, self.kstep, self.kbase, self.L,
-                self.preview_steps, self.cfg, c.fclip, self.W, c.obs, c.terms)
+        args = self._kernel_args(self.core.all_rows)
         return functools.partial(entry_point(k_track, *args), *args)
 
     def advance(self) -> None:
