@@ -8,6 +8,9 @@ the same run; ``--motor-only``: that table alone), the cost of map-based ``navig
 shipped map vs the random arena, timed alternately; ``--maps-only``: that table alone), plus
 ``gym.make`` time once the compiled caches exist. ``--breakdown``: only where a single env's
 step goes (the compiled physics, the core, the wrappers and info), against Pendulum-v1.
+``--substeps``: only the speed/accuracy table of the dynamic robots' ``sim_dt`` (each robot's
+default and coarser divisors of ``ctrl_dt``): RK4's error against an 8x finer step and the single
+env's step against Pendulum-v1, both action modes.
 Actions are sampled before timing; episodes that end are reset outside the timed region's
 count.
 """
@@ -22,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import wheelgym  # noqa: F401  (registers the ids)
+import wheelgym.validate
 from wheelgym.envs.robots import available_robots
 from wheelgym.registration import env_id
 
@@ -178,6 +182,42 @@ def bench_breakdown(robots: list[str], steps: int, repeats: int) -> None:
             env.close()
 
 
+#: ``sim_dt`` values of the ``--substeps`` table (s): divisors of the 0.05 s control period.
+SUBSTEP_DTS = (0.00125, 0.002, 0.0025, 0.005)
+
+
+def bench_substeps(robots: list[str], steps: int, repeats: int) -> None:
+    """Speed against accuracy of the RK4 substep ``sim_dt`` (an env keyword) for the dynamic
+    robots: the largest relative state error over a 10 s validation manoeuvre against a run at
+    ``sim_dt / 8`` (:func:`wheelgym.validate.step_refinement_error`; 1e-6 is 1 um, 1 urad or
+    1 um/s where the state stays below 1), RK4's stiffness margin ``lambda sim_dt`` (stable
+    below 2.79), and the single env's goal-task step against Pendulum-v1 (timed alternately)."""
+    from wheelgym.validate import stiffness_margin
+
+    print("| robot | sim_dt (s) | substeps | relative error (10 s) | lambda sim_dt | "
+          "action mode | us/step | ratio vs Pendulum |")
+    print("|---|---:|---:|---:|---:|---|---:|---:|")
+    pend = gym.make("Pendulum-v1")
+    for robot in robots:
+        spec = wheelgym.envs.robots.get_spec(robot)
+        if spec.kinematic:
+            continue  # its default step is exact for constant commands
+        model = spec.make_model(None, spec.action_modes[0])
+        for sdt in SUBSTEP_DTS:
+            if sdt < model.default_sim_dt:
+                continue
+            err = wheelgym.validate.step_refinement_error(model, 10.0, 8, sdt)
+            margin = stiffness_margin(model, sdt)
+            default = " (default)" if sdt == model.default_sim_dt else ""
+            n_sub = model.n_substeps(model.default_ctrl_dt, sdt)
+            for mode in spec.action_modes:
+                env = gym.make(env_id(robot), task="goal", action_mode=mode, sim_dt=sdt)
+                t, t_ref = time_steps(env, steps, repeats, ref=pend)
+                print(f"| {robot} | {sdt:g}{default} | {n_sub}"
+                      f" | {err:.1e} | {margin:.2f} | {mode} | {t * 1e6:.1f} | {t_ref / t:.2f}x |")
+                env.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=3000)
@@ -189,7 +229,12 @@ def main() -> None:
                     help="only the map-based navigate vs random arena table")
     ap.add_argument("--breakdown", action="store_true",
                     help="only the table of where a single env's step goes")
+    ap.add_argument("--substeps", action="store_true",
+                    help="only the speed/accuracy table of sim_dt for the dynamic robots")
     args = ap.parse_args()
+    if args.substeps:
+        bench_substeps(args.robots or available_robots(), args.steps, args.repeats)
+        return
     if args.breakdown:
         bench_breakdown(args.robots or available_robots(), args.steps, args.repeats)
         return
