@@ -409,24 +409,36 @@ class PlanningNavigator:
 
 
 class WaypointHint:
-    """The navigate -v1 observation's opt-in hint: the point ``ahead`` m along a shortest path
-    (:func:`plan_path` on the layout's grid) from the robot to its goal.
+    """The navigate -v1 observation's opt-in hint: the point ``ahead`` m along the plan from
+    the robot to its goal.
 
-    Each row plans when its episode starts, when its layout or goal changes, and when the robot
-    is more than ``stray`` m from the path; between plans the nearest path point is searched
-    forwards from the last one. Without a path the hint is the goal itself.
+    The plan is the planning baseline's: for robots that turn in place a shortest path
+    (:func:`plan_path` on the layout's grid); for cars (``turn_radius`` given) the hybrid-A*
+    Reeds-Shepp path of :func:`plan_car`, on which the hint stops at the next cusp, so that it
+    lies behind the car on a reversing leg. Each row plans when its episode starts, when its
+    layout or goal changes, and when the robot is more than ``stray`` m from the path; between
+    plans the nearest path point is searched forwards from the last one (a car's search stops
+    at the next cusp until the nearest point is the cusp itself). Without a path the hint is
+    the goal itself.
 
     Args:
         arena: the task's :class:`~wheelgym.world.Arena` or :class:`~wheelgym.world.MapArena`.
         radius: the robot's footprint radius (m).
         num: rows.
+        turn_radius: a car's planning turn radius (m; ``CarTracker``'s), ``None`` otherwise.
     """
 
+    #: path samples' spacing (m)
+    STEP = 0.05
+
     def __init__(self, arena: Any, radius: float, num: int, *, ahead: float = 1.0,
-                 stray: float = 0.5, res: float = 0.05) -> None:
+                 stray: float = 0.5, res: float = 0.05, turn_radius: float | None = None) -> None:
         self.arena, self.radius, self.res = arena, float(radius), float(res)
         self.ahead, self.stray = float(ahead), float(stray)
+        self.turn_radius = None if turn_radius is None else float(turn_radius)
         self.paths: list[np.ndarray | None] = [None] * num
+        #: cars: each sample's driving direction (+1/-1); robots that turn in place: None
+        self.dirs: list[np.ndarray | None] = [None] * num
         self.idx = np.zeros(num, dtype=np.int64)
         self._key: list[Any] = [None] * num
         self._grid: dict[int, OccupancyGrid] = {}
@@ -447,20 +459,57 @@ class WaypointHint:
         if new_episode or key != self._key[i] or path is None:
             path = self._plan(i, world, pose, goal, key)
         j0 = int(self.idx[i])
-        win = path[j0:j0 + 40]
+        end = self._search_end(i, j0)
+        win = path[j0:end]
         d2 = np.sum((win - pose[:2]) ** 2, axis=1)
         j = j0 + int(np.argmin(d2))
         if d2[j - j0] > self.stray ** 2:
             path = self._plan(i, world, pose, goal, key)
             j = 0
         self.idx[i] = j
-        p = path[min(len(path) - 1, j + int(round(self.ahead / 0.05)))]
-        return float(p[0]), float(p[1])
+        k = self._ahead_index(i, j)
+        return float(path[k, 0]), float(path[k, 1])
+
+    def _cusp_after(self, i: int, j: int) -> int:
+        """The last sample index of the leg that sample ``j + 1`` drives (a car's next cusp,
+        or the path's end)."""
+        d = self.dirs[i]
+        assert d is not None
+        n = len(d)
+        if j + 1 >= n:
+            return n - 1
+        change = np.flatnonzero(d[j + 1:] != d[j + 1])
+        return n - 1 if len(change) == 0 else j + int(change[0])
+
+    def _search_end(self, i: int, j0: int) -> int:
+        end = j0 + 40
+        if self.dirs[i] is not None:  # a car: not past the next cusp before reaching it
+            end = min(end, self._cusp_after(i, j0) + 1)
+        return max(end, j0 + 1)
+
+    def _ahead_index(self, i: int, j: int) -> int:
+        path = self.paths[i]
+        assert path is not None
+        k = min(len(path) - 1, j + int(round(self.ahead / self.STEP)))
+        if self.dirs[i] is not None:
+            k = min(k, self._cusp_after(i, j))
+        return k
 
     def _plan(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray, key: Any
               ) -> np.ndarray:
-        path = plan_path(self._grid_of(world), pose[:2], goal[:2])
+        grid = self._grid_of(world)
+        dirs = None
+        if self.turn_radius is None:
+            path = plan_path(grid, pose[:2], goal[:2])
+        else:
+            from wheelgym.kinematics.reeds_shepp import sample
+
+            rs, _ = plan_car(grid, pose[:3], goal[:2], self.turn_radius)
+            path = None
+            if rs is not None and rs.segments:
+                smp = sample(rs, rs.start, self.STEP)
+                path, dirs = np.ascontiguousarray(smp.poses[:, :2]), smp.direction
         if path is None:
-            path = np.asarray(goal[:2], dtype=np.float64)[None].copy()
-        self.paths[i], self.idx[i], self._key[i] = path, 0, key
+            path, dirs = np.asarray(goal[:2], dtype=np.float64)[None].copy(), None
+        self.paths[i], self.dirs[i], self.idx[i], self._key[i] = path, dirs, 0, key
         return path

@@ -471,9 +471,10 @@ class NavigateTask(GoalTask):
 
     v1's observation appends, after the rays: the goal in polar body coordinates
     ``goal_dist`` (m, clipped to 12), ``cos_bearing``, ``sin_bearing``; with
-    ``waypoint_hint=True`` also ``waypoint_x_b``, ``waypoint_y_b`` (m): the point 1 m along a
-    shortest path on the map (:class:`~wheelgym.planning.WaypointHint`), re-planned when the
-    robot strays from it by 0.5 m.
+    ``waypoint_hint=True`` also ``waypoint_x_b``, ``waypoint_y_b`` (m): the point 1 m along the
+    planning baseline's plan (:class:`~wheelgym.planning.WaypointHint`: a shortest grid path,
+    for cars the hybrid-A* path up to its next cusp), re-planned when the robot strays from it
+    by 0.5 m.
     """
 
     name = "navigate"
@@ -538,7 +539,12 @@ class NavigateTask(GoalTask):
             if self.waypoint_hint:
                 from wheelgym.planning import WaypointHint
 
-                self.hint = WaypointHint(self.arena, core.spec.radius, N)
+                turn = None
+                if not core.spec.turns_in_place:  # a car: the hybrid-A* plan's turn radius
+                    from wheelgym.kinematics.car_tracking import CarTracker
+
+                    turn = CarTracker.from_model(core.model).radius
+                self.hint = WaypointHint(self.arena, core.spec.radius, N, turn_radius=turn)
             self._polar = np.zeros((N, 3 + 2 * self.waypoint_hint))
             self._obs_end = len(self.obs_layout()[0])  # where v1's entries end in core.obs
 
