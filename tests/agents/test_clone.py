@@ -298,3 +298,32 @@ def test_a_planner_cloned_run_records_the_teacher_and_the_fit(tmp_path):
     assert stage["teacher"] == "planner" and stage["status"] == "finished"
     assert [r["driver"] for r in stage["rounds"]] == ["planner", "clone"]
     assert stage["mse_after"] < stage["mse_before"]
+
+
+def _true_teacher_config(**env_kwargs):
+    data = tiny_config_flat()
+    data["wheelgym"]["env_kwargs"].update(env_kwargs)
+    data["wheelgym"]["vec_env"] = "native"
+    data["wheelgym"]["pipeline"] = [
+        {"stage": "imitate", "teacher": "baseline_true", "steps": 512}, {"stage": "rl"}]
+    return parse_config(data)
+
+
+@pytest.mark.parametrize("perturbed", [False, True])
+def test_the_true_model_teacher_labels_with_each_rows_true_parameters(perturbed):
+    """``teacher: baseline_true`` labels with ``wheelgym.baseline(env, model="true")``: in the
+    torque mode on the nominal plant the same actions as the nominal-model baseline, on a
+    perturbed one (the ``medium`` level: mass, friction, torque limits, ...) different ones."""
+    cfg = _true_teacher_config(action_mode="torque",
+                               **({"perturbation": "medium"} if perturbed else {}))
+    assert cfg.recipe == "clone-true+rl"
+    venv = wrap_normalize(make_train_env(cfg, seed=0), cfg)
+    venv.training = False
+    labels = {}
+    for kind in ("nominal", "true"):
+        venv.seed(3)
+        venv.reset()
+        labels[kind] = demonstrate(venv, 2 * 40, model_kind=kind).actions
+    differ = np.abs(labels["true"] - labels["nominal"]).max()
+    assert (differ > 1e-3) if perturbed else (differ == 0.0)
+    venv.close()

@@ -114,8 +114,8 @@ def test_stage_errors_name_the_stage_the_key_and_the_valid_keys():
         ([{"stage": "imitate", "steps": 5}, {"stage": "rl"}],
          r"pipeline\[0\] \(imitate\): missing key\(s\) \['teacher'\]"),
         ([{"stage": "imitate", "teacher": "me", "steps": 5}, {"stage": "rl"}],
-         r"pipeline\[0\] \(imitate\): teacher must be one of \['baseline', 'planner', "
-         r"'self_without_internal_force'\]"),
+         r"pipeline\[0\] \(imitate\): teacher must be one of \['baseline', 'baseline_true', "
+         r"'planner', 'self_without_internal_force'\]"),
         ([{"stage": "rl"}, {"stage": "rl"}], "exactly one 'rl' stage"),
         ([{"stage": "imitate", "teacher": "baseline", "steps": 5}], "exactly one 'rl' stage"),
         ([{"stage": "rl", "reward_schedule": {"saturation": [[5, 0.1], [1, 0.2]]}}],

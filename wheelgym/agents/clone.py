@@ -174,7 +174,8 @@ def _null_space(core: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
 def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
                 stop: Callable[[], bool] | None = None,
                 actor: Callable[[np.ndarray], np.ndarray] | None = None,
-                internal_force: bool = False, planner: str | None = None) -> Demonstration:
+                internal_force: bool = False, planner: str | None = None,
+                model_kind: str = "nominal") -> Demonstration:
     """Label ``steps`` environment steps of ``venv`` with the analytic baseline's actions.
 
     The baseline drives, or ``actor`` (observations -> actions, e.g. the clone's deterministic
@@ -188,12 +189,14 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
     ``internal_force`` records each row's :func:`internal_force_rows` too (read before the
     step, like the label). Raises ``ValueError`` when the envs have no baseline (or, with
     ``internal_force``, no internal force). ``planner``: the planning baseline's planner
-    (``wheelgym.baseline(env, planner=...)``, navigate only) labels instead of the reactive one.
+    (``wheelgym.baseline(env, planner=...)``, navigate only) labels instead of the reactive one;
+    ``model_kind`` (``"nominal"`` or ``"true"``): the parameters the baseline computes with.
     """
     from wheelgym.envs.baseline import baseline
 
     try:
-        policy = baseline(venv, planner=planner)  # it finds the env's core under SB3's wrappers
+        # it finds the env's core under SB3's wrappers
+        policy = baseline(venv, planner=planner, model=model_kind)
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     if internal_force:
@@ -342,7 +345,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
                    epochs: int | None = None,
                    internal_force: float | None = None, lr: float = LR,
-                   planner: str | None = None) -> dict[str, Any]:
+                   planner: str | None = None, model_kind: str = "nominal") -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -360,7 +363,9 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     (:func:`fit_mean`); the figures then add ``internal_force_weight`` and the mean
     :func:`force_error` before and after (``force_error_before``, ``force_error_after``).
     ``lr``: Adam's learning rate of the fits (default :data:`LR`). ``planner``: the planning
-    baseline (``wheelgym.baseline(env, planner=planner)``, navigate only) is the teacher.
+    baseline (``wheelgym.baseline(env, planner=planner)``, navigate only) is the teacher;
+    ``model_kind``: the parameters the analytic baseline computes with (``"nominal"`` or
+    ``"true"``, :data:`wheelgym.envs.baseline.BASELINE_MODELS`).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -370,9 +375,10 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     per = max(1, steps // rounds)
     forces = bool(internal_force)
     demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
-                       planner=planner)
+                       planner=planner, model_kind=model_kind)
     obs, actions, returns, rows = demo.obs, demo.actions, demo.returns, demo.force_rows
-    log = [{"driver": "planner" if planner else "baseline", **_episodes(demo)}]
+    driver = "planner" if planner else "baseline" + ("" if model_kind == "nominal" else " (true)")
+    log = [{"driver": driver, **_episodes(demo)}]
     before = mean_error(model, obs, actions)
     f_before = force_error(model, obs, actions, rows) if forces else None
     v_before = value_error(model, obs, returns)
@@ -381,7 +387,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
         if k:  # all rows so far, and the new ones
             demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
                                actor=lambda o: model.predict(o, deterministic=True)[0],
-                               planner=planner)
+                               planner=planner, model_kind=model_kind)
             log.append({"driver": "clone", **_episodes(demo),
                         "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
             obs = np.concatenate([obs, demo.obs])

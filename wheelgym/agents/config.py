@@ -613,12 +613,13 @@ class TrainConfig:
     def recipe(self) -> str:
         """The recipe's short name for the results table: ``scratch`` (RL alone, with or without a
         reward schedule), or the stages
-        joined by ``+`` (``clone`` for imitating the baseline, ``plan-clone`` the planning
+        joined by ``+`` (``clone`` for imitating the baseline, ``clone-true`` the baseline with
+        the true parameters, ``plan-clone`` the planning
         baseline, ``distill`` for the policy
         itself without its internal force, ``rl``), e.g. ``clone+rl``."""
         if not any(isinstance(s, pipeline_mod.Imitate) for s in self.pipeline):
             return "scratch"
-        names = {"baseline": "clone", "planner": "plan-clone",
+        names = {"baseline": "clone", "baseline_true": "clone-true", "planner": "plan-clone",
                  "self_without_internal_force": "distill"}
         return "+".join(names[s.teacher] if isinstance(s, pipeline_mod.Imitate) else s.kind
                         for s in self.pipeline)

@@ -29,7 +29,9 @@ rl        the algorithm's own training for the RL Zoo block's ``n_timesteps`` (t
 ========= =========================================================================================
 
 Teachers of ``imitate`` (:data:`TEACHERS`): ``baseline`` (the analytic baseline drives the first
-round, the clone the later ones, the baseline labels every state), ``planner`` (the same with the
+round, the clone the later ones, the baseline labels every state), ``baseline_true`` (the same
+with the baseline computing with each row's true, perturbed parameters: a privileged teacher,
+``wheelgym.baseline(env, model="true")``; docs/topics/robustness.md), ``planner`` (the same with the
 planning baseline, ``wheelgym.baseline(env, planner="auto")``: navigate only;
 docs/topics/planning.md) and
 ``self_without_internal_force`` (the policy as it is, its actions less their internal force,
@@ -66,10 +68,12 @@ __all__ = [
 ]
 
 #: The teachers of an ``imitate`` stage.
-TEACHERS: tuple[str, ...] = ("baseline", "planner", "self_without_internal_force")
+TEACHERS: tuple[str, ...] = ("baseline", "baseline_true", "planner",
+                              "self_without_internal_force")
 #: The teachers that are a baseline policy (:func:`wheelgym.agents.clone.clone_baseline`), with
-#: the ``planner`` argument of :func:`wheelgym.baseline` each passes.
-BASELINE_TEACHERS: dict[str, str | None] = {"baseline": None, "planner": "auto"}
+#: the keywords each passes to it (``planner``, ``model_kind``: of :func:`wheelgym.baseline`).
+BASELINE_TEACHERS: dict[str, dict[str, str]] = {
+    "baseline": {}, "baseline_true": {"model_kind": "true"}, "planner": {"planner": "auto"}}
 
 
 # --------------------------------------------------------------------------------------------
@@ -159,7 +163,8 @@ class Imitate:
     """
 
     teacher: str = _key(_teacher, "string", "required",
-                        "who labels the states: `baseline` (the analytic baseline), `planner` "
+                        "who labels the states: `baseline` (the analytic baseline), "
+                        "`baseline_true` (the baseline with each row's true parameters), `planner` "
                         "(the planning baseline; navigate only) or "
                         "`self_without_internal_force` (the policy itself, its actions less "
                         "their internal force)", required=True)
@@ -351,7 +356,7 @@ def legacy_form(stages: Sequence[Stage]) -> dict[str, Any] | None:
             if s.reward_schedule is not None:
                 out["reward_schedule"] = copy.deepcopy(s.reward_schedule)
             continue
-        if s.teacher == "planner":  # no flat key ever named it
+        if s.teacher in ("planner", "baseline_true"):  # no flat key ever named them
             return None
         names = _CLONE if s.teacher == "baseline" else _DISTILL
         if s.teacher in taken or (s.teacher == "baseline") == seen_rl or s.lr is not None:

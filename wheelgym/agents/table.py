@@ -279,7 +279,8 @@ TABLE_NOTE = (
     "track >= {track:.0f}%; RMS <= max({rf:g}x baseline, {floor:g} m); torque mode internal "
     "force <= {xf:g}x and energy <= {ef:g}x the baseline's where internal force is defined; "
     "saturation <= {sat:.0f}%; time <= {ts:.0f} s/seed). Recipe: the config's pipeline "
-    "(scratch: RL only; clone: imitating the analytic baseline; plan-clone: imitating the "
+    "(scratch: RL only; clone: imitating the analytic baseline; clone-true: imitating it with "
+    "the true, perturbed parameters; plan-clone: imitating the "
     "planning baseline; distill: the policy refitted without its internal force)."
 )
 
