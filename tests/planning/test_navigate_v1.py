@@ -179,8 +179,7 @@ def _hint_on(path, dirs):
 
     hint = WaypointHint(None, 0.2, 1, turn_radius=1.0)
     world, goal = object(), np.array([9.0, 9.0])
-    hint.paths[0], hint.dirs[0] = path, dirs
-    hint._key[0] = (id(world), 9.0, 9.0)
+    hint._set_plan(0, path, dirs, (id(world), 9.0, 9.0))
     return lambda xy: hint.waypoint(0, world, np.array([*xy, 0.0]), goal, False)
 
 

@@ -439,6 +439,8 @@ class WaypointHint:
         self.paths: list[np.ndarray | None] = [None] * num
         #: cars: each sample's driving direction (+1/-1); robots that turn in place: None
         self.dirs: list[np.ndarray | None] = [None] * num
+        #: cars: the last sample index of each leg (each cusp, then the path's end), ascending
+        self._leg_ends: list[np.ndarray | None] = [None] * num
         self.idx = np.zeros(num, dtype=np.int64)
         self._key: list[Any] = [None] * num
         self._grid: dict[int, OccupancyGrid] = {}
@@ -473,13 +475,9 @@ class WaypointHint:
     def _cusp_after(self, i: int, j: int) -> int:
         """The last sample index of the leg that sample ``j + 1`` drives (a car's next cusp,
         or the path's end)."""
-        d = self.dirs[i]
-        assert d is not None
-        n = len(d)
-        if j + 1 >= n:
-            return n - 1
-        change = np.flatnonzero(d[j + 1:] != d[j + 1])
-        return n - 1 if len(change) == 0 else j + int(change[0])
+        ends = self._leg_ends[i]
+        assert ends is not None
+        return int(ends[min(int(np.searchsorted(ends, j + 1)), len(ends) - 1)])
 
     def _search_end(self, i: int, j0: int) -> int:
         end = j0 + 40
@@ -511,5 +509,11 @@ class WaypointHint:
                 path, dirs = np.ascontiguousarray(smp.poses[:, :2]), smp.direction
         if path is None:
             path, dirs = np.asarray(goal[:2], dtype=np.float64)[None].copy(), None
-        self.paths[i], self.dirs[i], self.idx[i], self._key[i] = path, dirs, 0, key
+        self._set_plan(i, path, dirs, key)
         return path
+
+    def _set_plan(self, i: int, path: np.ndarray, dirs: np.ndarray | None, key: Any) -> None:
+        """Row ``i``'s plan: points ``(n, 2)`` (m), cars' driving directions ``(n,)``."""
+        self.paths[i], self.dirs[i], self.idx[i], self._key[i] = path, dirs, 0, key
+        self._leg_ends[i] = None if dirs is None else np.append(
+            np.flatnonzero(dirs[:-1] != dirs[1:]), len(dirs) - 1)
