@@ -307,6 +307,8 @@ _CLONE = {"clone_baseline": "steps", "clone_rounds": "rounds", "clone_epochs": "
           "clone_internal_force": "internal_force"}
 _DISTILL = {"distill_internal_force": "steps", "distill_rounds": "rounds",
             "distill_weight": "internal_force"}
+#: The teachers the flat keys could spell, with those keys.
+_LEGACY_TEACHER_KEYS = {"baseline": _CLONE, "self_without_internal_force": _DISTILL}
 
 
 def from_legacy(block: Mapping[str, Any]) -> tuple[list[dict[str, Any]] | None, Any]:
@@ -356,9 +358,9 @@ def legacy_form(stages: Sequence[Stage]) -> dict[str, Any] | None:
             if s.reward_schedule is not None:
                 out["reward_schedule"] = copy.deepcopy(s.reward_schedule)
             continue
-        if s.teacher in ("planner", "baseline_true"):  # no flat key ever named them
+        names = _LEGACY_TEACHER_KEYS.get(s.teacher)
+        if names is None:  # a teacher no flat key ever named
             return None
-        names = _CLONE if s.teacher == "baseline" else _DISTILL
         if s.teacher in taken or (s.teacher == "baseline") == seen_rl or s.lr is not None:
             return None
         if s.teacher != "baseline" and s.epochs is not None:
