@@ -25,9 +25,9 @@ import gymnasium as gym
 import numpy as np
 
 import wheelgym  # noqa: F401  (registers the ids)
-import wheelgym.validate
 from wheelgym.envs.robots import available_robots
 from wheelgym.registration import env_id
+from wheelgym.validate import step_refinement_error, stiffness_margin
 
 TARGETS = {"ThreeWheel": 0.3, "SkidSteer": 0.5, "CasterAGV": 0.3, "DiffDrive": 1.0,
            "Unicycle": 1.0, "Bicycle": 1.0, "Ackermann": 1.0}
@@ -192,8 +192,6 @@ def bench_substeps(robots: list[str], steps: int, repeats: int) -> None:
     ``sim_dt / 8`` (:func:`wheelgym.validate.step_refinement_error`; 1e-6 is 1 um, 1 urad or
     1 um/s where the state stays below 1), RK4's stiffness margin ``lambda sim_dt`` (stable
     below 2.79), and the single env's goal-task step against Pendulum-v1 (timed alternately)."""
-    from wheelgym.validate import stiffness_margin
-
     print("| robot | sim_dt (s) | substeps | relative error (10 s) | lambda sim_dt | "
           "action mode | us/step | ratio vs Pendulum |")
     print("|---|---:|---:|---:|---:|---|---:|---:|")
@@ -206,7 +204,7 @@ def bench_substeps(robots: list[str], steps: int, repeats: int) -> None:
         for sdt in SUBSTEP_DTS:
             if sdt < model.default_sim_dt:
                 continue
-            err = wheelgym.validate.step_refinement_error(model, 10.0, 8, sdt)
+            err = step_refinement_error(model, 10.0, 8, sdt)
             margin = stiffness_margin(model, sdt)
             default = " (default)" if sdt == model.default_sim_dt else ""
             n_sub = model.n_substeps(model.default_ctrl_dt, sdt)
