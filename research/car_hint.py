@@ -4,10 +4,10 @@ Run from the repository root:
 
 - ``python research/car_hint.py [--arena warehouse] [--episodes 10]``: the planning baseline
   drives Bicycle (``VehicleSpeedSteeringAngle``, navigate -v1, ``waypoint_hint=True``); over
-  its steps that move and steer, how often the hint's side (``waypoint_y_b``) is the side the
-  planner steers to, and how often the hint lies on the side the planner drives (ahead when
-  forward), for the hint on the planner's hybrid-A* plan and for a grid-path hint (the hint
-  before 2026-12-04, a car plan's turn radius unset).
+  its steps that move and steer, how often the hint's point (``waypoint_y_b``) lies on the side
+  the planner steers to, how often its ``plan_direction`` is the planner's gear, and how often
+  the planner's steering is the tracker's feedback law of the observed frame (since
+  2026-12-04 the cars' hint is the tracker's own frame, so this is 100% up to float32).
 - ``--agent RUN_DIR``: the run's agent drives instead; on the states it reaches the planner's
   labels against its commands (gear agreement, correlation of speed and steering, their means).
 """
@@ -27,28 +27,38 @@ def _env(arena: str) -> gym.Env:
                     action_mode="VehicleSpeedSteeringAngle", arena=arena, waypoint_hint=True)
 
 
-def hint_agreement(arena: str, episodes: int, car_plan: bool) -> tuple[float, float, int]:
-    """Steering-side and gear agreement of the hint with the planner, and the steps counted."""
+def hint_agreement(arena: str, episodes: int) -> tuple[float, float, float, int]:
+    """Steering-side, gear and feedback-law agreement of the hint with the planner, and the
+    steering steps counted."""
+    from wheelgym.kinematics.car_tracking import rear_wheel_steering
+
     env = _env(arena)
     planner = wheelgym.baseline(env, planner="auto")
-    if not car_plan:
-        env.unwrapped.core.task.hint.turn_radius = None  # the grid path, as for turn-in-place
     names = env.unwrapped.core.obs_names
-    ix = names.index("waypoint_x_b")
-    side, gear = [], []
+    ix, k = names.index("waypoint_x_b"), names.index("plan_offset")
+    side, gear, law = [], [], []
     for ep in range(episodes):
         obs, _ = env.reset(seed=ep)
         while True:
             a = np.asarray(planner.predict(obs)[0])
-            if abs(a[0]) > 0.05:
-                gear.append(np.sign(obs[ix]) == np.sign(a[0]))
+            car = planner.navigator.cars[0]
+            lo, hi = planner._lo_nominal[0], planner._hi_nominal[0]
+            v = 0.5 * (hi + lo) + 0.5 * (hi - lo) * a[0]  # the commanded speed (m/s)
+            if abs(v) > 0.05:
+                gear.append(obs[k + 3] == np.sign(v))
                 if abs(a[1]) > 0.1:
                     side.append(np.sign(obs[ix + 1]) == np.sign(a[1]))
+                    lim = car.limits
+                    want = rear_wheel_steering(*(float(v) for v in obs[k:k + 3]),
+                                               int(obs[k + 3]), lim.wheelbase, car.k_e,
+                                               car.k_theta)
+                    want = min(max(want, -lim.max_steering_angle), lim.max_steering_angle)
+                    law.append(abs(want - car._delta) < 1e-4)
             obs, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 break
     env.close()
-    return float(np.mean(side)), float(np.mean(gear)), len(side)
+    return float(np.mean(side)), float(np.mean(gear)), float(np.mean(law)), len(side)
 
 
 def agent_against_planner(run_dir: str, arena: str, episodes: int) -> dict[str, float]:
@@ -90,13 +100,12 @@ def main() -> None:
             for k, v in agent_against_planner(args.agent, arena, args.episodes).items():
                 print(f"{arena}: {k} {v:.2f}")
         return
-    print("| arena | hint | steering side agrees | gear agrees | steering steps |")
-    print("|---|---|---:|---:|---:|")
+    print("| arena | hint side = steering side | plan_direction = gear | steering = law of the "
+          "frame | steering steps |")
+    print("|---|---:|---:|---:|---:|")
     for arena in arenas:
-        for car_plan, name in ((False, "grid path"), (True, "hybrid-A* plan")):
-            side, gear, n = hint_agreement(arena, args.episodes, car_plan)
-            print(f"| {arena} | {name} | {100 * side:.0f}% | {100 * gear:.0f}% | {n} |")
-
+        side, gear, law, n = hint_agreement(arena, args.episodes)
+        print(f"| {arena} | {100 * side:.0f}% | {100 * gear:.0f}% | {100 * law:.0f}% | {n} |")
 
 if __name__ == "__main__":
     main()

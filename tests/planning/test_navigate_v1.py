@@ -173,50 +173,81 @@ def test_v1_compute_reward_matches_the_step_reward():
             break
 
 
-def _hint_on(path, dirs):
-    """A car's hint (1 m ahead) on a hand-made plan, as if planned for this world and goal."""
+def _hint_on(segments):
+    """A car's hint on a hand-made plan of ``(kind, signed length)`` pieces from the origin
+    (the hint's tracker plans it instead of a hybrid A*)."""
+    from wheelgym.kinematics.reeds_shepp import path_from_segments
+    from wheelgym.models import Bicycle
     from wheelgym.planning import WaypointHint
 
-    hint = WaypointHint(None, 0.2, 1, turn_radius=1.0)
+    hint = WaypointHint(None, 0.2, 1, car=Bicycle())
+    car = hint.cars[0]
+    car.planner = lambda pose: path_from_segments(segments, car.radius, (0.0, 0.0, 0.0))
     world, goal = object(), np.array([9.0, 9.0])
-    hint._set_plan(0, path, dirs, (id(world), 9.0, 9.0))
-    return lambda xy: hint.waypoint(0, world, np.array([*xy, 0.0]), goal, False)
+    first = [True]
+
+    def at(xy):
+        f = hint.frame(0, world, np.array([*xy, 0.0]), goal, first[0])
+        first[0] = False
+        return f
+    return at
 
 
 def test_car_hint_stops_at_the_cusp_and_then_points_back():
-    # forward 2 m along x to a cusp at (2, 0), then reversing 1 m to (1, 0); 0.05 m samples
-    fwd = np.linspace(0.0, 2.0, 41)
-    back = np.linspace(2.0, 1.0, 21)[1:]
-    path = np.stack([np.concatenate([fwd, back]), np.zeros(61)], axis=1)
-    dirs = np.array([1] * 41 + [-1] * 20)
-    at = _hint_on(path, dirs)
-    assert at((0.0, 0.0)) == pytest.approx((1.0, 0.0))  # 1 m ahead on the forward leg
-    assert at((1.5, 0.0)) == pytest.approx((2.0, 0.0))  # not past the cusp
-    # (1.6, 0) also lies on the reversing leg: the search does not jump there before the cusp
-    assert at((1.6, 0.0)) == pytest.approx((2.0, 0.0))
-    assert at((2.0, 0.0)) == pytest.approx((1.0, 0.0))  # at the cusp: 1 m back, behind the car
+    # forward 2 m along x to a cusp at (2, 0), then reversing 1 m to (1, 0)
+    at = _hint_on([("S", 2.0), ("S", -1.0)])
+    f = at((0.0, 0.0))
+    assert f.ahead == pytest.approx((1.0, 0.0))  # 1 m ahead on the forward run
+    assert (f.direction, f.remaining, f.offset, f.heading) == pytest.approx((1, 2.0, 0, 0))
+    for x in (0.4, 0.8, 1.2):  # the tracker searches 0.5 m on from its last nearest sample
+        at((x, 0.0))
+    f = at((1.5, 0.05))
+    assert f.ahead == pytest.approx((2.0, 0.0))  # not past the cusp
+    assert (f.remaining, f.offset) == pytest.approx((0.5, 0.05), abs=0.011)
+    # (1.6, 0) also lies on the reversing run: the tracker does not jump there before the cusp
+    assert at((1.6, 0.0)).ahead == pytest.approx((2.0, 0.0))
+    f = at((2.0, 0.0))  # at the cusp: 1 m back, behind the car, driving backwards
+    assert f.ahead == pytest.approx((1.0, 0.0)) and f.direction == -1
+    assert f.remaining == pytest.approx(1.0)
 
 
-def test_car_hint_follows_the_planning_baselines_plan():
-    """Bicycle on the warehouse map: the hint is taken from a hybrid-A* plan (its samples carry
-    driving directions) and the planning baseline steers toward its side (a grid-path hint,
-    which a car cannot follow, agrees on 68% of these 6 episodes' steering steps; this one 80%)."""
-    env = gym.make(env_id("Bicycle", 1), task="navigate", action_mode="VehicleSpeedSteeringAngle",
-                   arena="warehouse", waypoint_hint=True)
+@pytest.mark.parametrize("robot, mode", [("Bicycle", "VehicleSpeedSteeringAngle"),
+                                         ("Ackermann", "VehicleSpeedSteeringRate")])
+def test_car_hint_is_the_planning_baselines_tracking_frame(robot, mode):
+    """On the office map the hint's tracker replans when and where the planning baseline's
+    does: its frame equals the baseline's at every step, and the baseline's steering is the
+    feedback law of the observed frame (car_tracking.rear_wheel_steering)."""
+    from wheelgym.kinematics.car_tracking import rear_wheel_steering
+
+    env = gym.make(env_id(robot, 1), task="navigate", action_mode=mode, arena="office",
+                   waypoint_hint=True)
     policy = wheelgym.baseline(env, planner="auto")
     names = env.unwrapped.core.obs_names
-    iy = names.index("waypoint_y_b")
-    agree = []
-    for seed in range(6):
+    k = names.index("plan_offset")
+    assert names[k - 2:k + 5] == ["waypoint_x_b", "waypoint_y_b", "plan_offset", "plan_heading",
+                                  "plan_curvature", "plan_direction", "plan_remaining"]
+    steps = replans = 0
+    rng = np.random.default_rng(0)
+    for seed in range(4):
         obs, _ = env.reset(seed=seed)
-        hint = env.unwrapped.core.task.hint
-        assert hint.dirs[0] is not None and set(np.unique(hint.dirs[0])) <= {-1, 1}
-        assert hint.paths[0][0] == pytest.approx(env.unwrapped.core.pose[0, :2])
         while True:
+            assert env.observation_space.contains(obs)
             a = np.asarray(policy.predict(obs)[0])
-            if abs(a[0]) > 0.05 and abs(a[1]) > 0.1:  # moving and steering
-                agree.append(np.sign(obs[iy]) == np.sign(a[1]))
+            car, mine = policy.navigator.cars[0], env.unwrapped.core.task.hint.cars[0]
+            assert mine.frame == car.frame
+            e, th, kappa, d = (float(v) for v in obs[k:k + 4])
+            if d != 0 and robot == "Bicycle":
+                lim = car.limits
+                want = rear_wheel_steering(e, th, kappa, int(d), lim.wheelbase, car.k_e,
+                                           car.k_theta)
+                want = min(max(want, -lim.max_steering_angle), lim.max_steering_angle)
+                assert car._delta == pytest.approx(want, abs=1e-4)  # float32 observation
+            if 30 <= steps % 100 < 50:  # off the plan for a while, as a learner drives
+                a = np.clip(a + rng.normal(0.0, 1.0, 2), -1.0, 1.0)
+            steps += 1
             obs, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 break
-    assert len(agree) > 500 and np.mean(agree) >= 0.75
+        replans += car.replans
+    assert steps > 300
+    assert replans > 0 or robot == "Ackermann"  # Bicycle's replans were matched too

@@ -38,6 +38,8 @@ sanity limits. Layout by task (the robot's features, listed above, come after th
 |          | vx, vy, wz; robot features                                           | m/s, rad/s  |
 | navigate | as goal, then range_0..range_15 (rays at yaw + 2 pi k / 16, 0-3 m)   | m           |
 | (-v1)    | then goal_dist, cos_bearing, sin_bearing (+ waypoint_x_b, _y_b)      | m, -        |
+| (hint)   | cars: + plan_offset, plan_heading, plan_curvature, plan_direction,   | m, rad, 1/m,|
+|          | plan_remaining (the planning baseline's tracking frame)              | -, m        |
 | any      | ``action_history=k``: then prev_action_1_0 .. prev_action_k_{n-1}     | action units|
 
 ## Rewards

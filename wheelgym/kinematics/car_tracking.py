@@ -49,7 +49,8 @@ import numpy as np
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, Segment, reeds_shepp_path, sample
 from wheelgym.models.elementwise import wrap_angle
 
-__all__ = ["CarLimits", "CarCommand", "CarTracker", "rear_wheel_steering", "min_turning_radius"]
+__all__ = ["CarLimits", "CarCommand", "CarTracker", "TrackFrame", "rear_wheel_steering",
+           "min_turning_radius"]
 
 _MODES = ("VehicleSpeedSteeringAngle", "VehicleSpeedHeadingRate", "VehicleSpeedSteeringRate")
 
@@ -130,6 +131,28 @@ class CarCommand(NamedTuple):
     delta: float
     psidot: float
     done: bool
+
+
+class TrackFrame(NamedTuple):
+    """Where the car stands against the run it follows: the inputs of the feedback law at the
+    last :meth:`CarTracker.command` (all zero, ``ahead`` the goal, when no run is followed).
+
+    | field     | unit | meaning                                                        |
+    |-----------|------|----------------------------------------------------------------|
+    | offset    | m    | ``e``: the rear axle left of the run's tangent (positive)      |
+    | heading   | rad  | ``theta_e = yaw - yaw_ref``, wrapped                           |
+    | curvature | 1/m  | ``kappa_ref`` per signed metre, as the law reads it            |
+    | direction | -    | ``+1`` forwards, ``-1`` backwards, ``0`` no run                |
+    | remaining | m    | arc length left to the run's end (the next cusp or the goal)   |
+    | ahead     | m, m | world point ``lookahead`` m on along the run (not past its end) |
+    """
+
+    offset: float
+    heading: float
+    curvature: float
+    direction: int
+    remaining: float
+    ahead: tuple[float, float]
 
 
 class _Run(NamedTuple):
@@ -213,6 +236,10 @@ class CarTracker:
         self._i = 0
         self._moving = False
         self._delta = 0.0  # last steering command (the state of a bicycle has none)
+        #: the feedback law's inputs at the last command (:class:`TrackFrame`)
+        self.frame = self._idle_frame()
+        #: the arc length (m) ``frame.ahead`` lies on from the nearest sample
+        self.lookahead = 1.0
 
     @classmethod
     def from_model(cls, model: Any, **kwargs: Any) -> CarTracker:
@@ -270,6 +297,7 @@ class CarTracker:
             raise RuntimeError("call reset(state, goal) before command()")
         x = np.asarray(state, dtype=np.float64).reshape(-1)
         psi = float(x[3]) if x.shape[0] > 3 else self._delta
+        self.frame = self._idle_frame()  # until a run is followed below
         for _ in range(len(self._runs) + 2):  # finished runs are skipped within one call
             if self._run >= len(self._runs):
                 if self._at_goal(x) or self.replans >= self.max_replans:
@@ -290,6 +318,10 @@ class CarTracker:
         if self.input_mode == "VehicleSpeedHeadingRate":
             return np.array([c.v, c.v * math.tan(c.delta) / self.limits.wheelbase])
         return np.array([c.v, c.psidot])
+
+    def _idle_frame(self) -> TrackFrame:
+        g = self.goal if self.goal is not None else (0.0, 0.0)
+        return TrackFrame(0.0, 0.0, 0.0, 0, 0.0, (float(g[0]), float(g[1])))
 
     def _at_goal(self, x: np.ndarray) -> bool:
         g = self.goal
@@ -340,6 +372,9 @@ class CarTracker:
         speed = self.v_fwd if sign > 0 else self.v_back
         ahead = int(0.5 * speed * 0.3 / self.step) if lim.max_steering_rate is not None else 0
         k_ref = float(run.kappa[min(n - 1, i + ahead)])
+        k = min(n - 1, i + int(round(self.lookahead / self.step)))
+        self.frame = TrackFrame(e, th, k_ref, sign, remaining,
+                                (float(run.xy[k, 0]), float(run.xy[k, 1])))
         delta = rear_wheel_steering(e, th, k_ref, sign, lim.wheelbase, self.k_e, self.k_theta)
         delta = min(max(delta, -lim.max_steering_angle), lim.max_steering_angle)
         # at the start of a run, stand until the steering has turned (Ackermann)

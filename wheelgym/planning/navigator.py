@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from wheelgym.kinematics.car_tracking import CarTracker
+from wheelgym.kinematics.car_tracking import CarTracker, TrackFrame
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, path_from_segments
 from wheelgym.planning.grid import OccupancyGrid, grid_from_world
 from wheelgym.planning.search import (
@@ -60,12 +60,21 @@ from wheelgym.planning.search import (
     shortcut,
 )
 
-__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "resample", "centre",
-           "PLANNERS"]
+__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "car_tracker", "resample",
+           "centre", "PLANNERS", "CAR_SPEED"]
 
 #: ``planner=`` choices: ``"astar"`` (grid A* + smoothing; the robots that turn in place),
 #: ``"hybrid"`` (hybrid A* over Reeds-Shepp primitives; the cars), ``"auto"`` (the robot's).
 PLANNERS = ("auto", "astar", "hybrid")
+
+#: the cars' cruise speed (m/s) in the planning baseline (cut to the car's speed range)
+CAR_SPEED = 1.5
+
+
+def car_tracker(model: Any, planner: Any, car_speed: float = CAR_SPEED) -> CarTracker:
+    """The planning baseline's tracker for a car ``model``, planning with ``planner(pose)``
+    (one construction for the baseline and the cars' waypoint hint)."""
+    return CarTracker.from_model(model, cruise_speed=car_speed, planner=planner)
 
 
 def _nearest_free(free: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
@@ -189,7 +198,7 @@ class PlanningNavigator:
 
     def __init__(self, core: Any, planner: str = "auto", *, v_cap: float = 1.5,
                  w_cap: float = 3.0,
-                 car_speed: float = 1.5, lookahead: float = 0.5, stray: float = 0.3,
+                 car_speed: float = CAR_SPEED, lookahead: float = 0.5, stray: float = 0.3,
                  stuck_steps: int = 60, res: float = 0.05) -> None:
         if planner not in PLANNERS:
             raise ValueError(f"planner must be one of {list(PLANNERS)}, got {planner!r}")
@@ -233,9 +242,8 @@ class PlanningNavigator:
         self._map_grid: OccupancyGrid | None = None
         self.cars: list[CarTracker] | None = None
         if self.car:
-            self.cars = [CarTracker.from_model(
-                core.model, cruise_speed=self.car_speed,
-                planner=lambda pose, i=i: self._car_plan(i, pose)) for i in range(N)]
+            self.cars = [car_tracker(core.model, lambda pose, i=i: self._car_plan(i, pose),
+                                     self.car_speed) for i in range(N)]
         #: wall-clock seconds of every plan (grid included), and the counts
         self.plan_times: list[float] = []
         self.plans = 0
@@ -409,41 +417,52 @@ class PlanningNavigator:
 
 
 class WaypointHint:
-    """The navigate -v1 observation's opt-in hint: the point ``ahead`` m along the plan from
-    the robot to its goal.
+    """The navigate -v1 observation's opt-in hint: where the planning baseline's plan goes.
 
-    The plan is the planning baseline's: for robots that turn in place a shortest path
-    (:func:`plan_path` on the layout's grid); for cars (``turn_radius`` given) the hybrid-A*
-    Reeds-Shepp path of :func:`plan_car`, on which the hint stops at the next cusp, so that it
-    lies behind the car on a reversing leg. Each row plans when its episode starts, when its
-    layout or goal changes, and when the robot is more than ``stray`` m from the path; between
-    plans the nearest path point is searched forwards from the last one (a car's search stops
-    at the next cusp until the nearest point is the cusp itself). Without a path the hint is
-    the goal itself.
+    Robots that turn in place: the point ``ahead`` m along a shortest path (:func:`plan_path`
+    on the layout's grid) from the robot to its goal, planned when the episode starts, when its
+    layout or goal changes and when the robot is more than ``stray`` m from the path (between
+    plans the nearest path point is searched forwards from the last one); without a path the
+    goal itself.
+
+    Cars (``car`` given): the planning baseline's own tracker (:func:`car_tracker`, the
+    hybrid-A* plan of :func:`plan_car`, replanned when and where the baseline replans) is run
+    on the robot's states, and the hint is its :class:`~wheelgym.kinematics.car_tracking.
+    TrackFrame`: the point ``ahead`` m along the run it follows (not past the next cusp, so on
+    a reversing run it lies behind the car), the car's lateral offset and heading error
+    against that run, the run's curvature, its driving direction and the arc length left to
+    its end, the inputs of the tracker's steering and speed laws. The baseline, driving the
+    same states, computes its commands from the same frame.
 
     Args:
         arena: the task's :class:`~wheelgym.world.Arena` or :class:`~wheelgym.world.MapArena`.
         radius: the robot's footprint radius (m).
         num: rows.
-        turn_radius: a car's planning turn radius (m; ``CarTracker``'s), ``None`` otherwise.
+        car: a car's model (Bicycle, Ackermann), ``None`` for robots that turn in place.
+        dt: the control period (s) the cars' trackers command for.
     """
 
     #: path samples' spacing (m)
     STEP = 0.05
 
     def __init__(self, arena: Any, radius: float, num: int, *, ahead: float = 1.0,
-                 stray: float = 0.5, res: float = 0.05, turn_radius: float | None = None) -> None:
+                 stray: float = 0.5, res: float = 0.05, car: Any = None,
+                 dt: float = 0.05) -> None:
         self.arena, self.radius, self.res = arena, float(radius), float(res)
-        self.ahead, self.stray = float(ahead), float(stray)
-        self.turn_radius = None if turn_radius is None else float(turn_radius)
+        self.ahead, self.stray, self.dt = float(ahead), float(stray), float(dt)
         self.paths: list[np.ndarray | None] = [None] * num
-        #: cars: each sample's driving direction (+1/-1); robots that turn in place: None
-        self.dirs: list[np.ndarray | None] = [None] * num
-        #: cars: the last sample index of each leg (each cusp, then the path's end), ascending
-        self._leg_ends: list[np.ndarray | None] = [None] * num
         self.idx = np.zeros(num, dtype=np.int64)
         self._key: list[Any] = [None] * num
+        self._world: list[Any] = [None] * num
+        self._goal = np.zeros((num, 2))
         self._grid: dict[int, OccupancyGrid] = {}
+        #: cars: each row's tracker (the planning baseline's); robots that turn in place: None
+        self.cars: list[CarTracker] | None = None
+        if car is not None:
+            self.cars = [car_tracker(car, lambda pose, i=i: self._car_plan(i, pose))
+                         for i in range(num)]
+            for tracker in self.cars:
+                tracker.lookahead = self.ahead
 
     def _grid_of(self, world: Any) -> OccupancyGrid:
         key = 0 if hasattr(self.arena, "bounds") else id(world)  # a map: one geometry
@@ -453,67 +472,51 @@ class WaypointHint:
             self._grid[key] = grid_from_world(world, self.arena, self.radius, self.res)
         return self._grid[key]
 
+    def _car_plan(self, i: int, pose: np.ndarray) -> ReedsSheppPath:
+        assert self.cars is not None
+        r = self.cars[i].radius
+        path, _ = plan_car(self._grid_of(self._world[i]), pose, self._goal[i], r)
+        return path_from_segments([], r, pose) if path is None else path
+
+    def frame(self, i: int, world: Any, state: np.ndarray, goal: np.ndarray,
+              new_episode: bool) -> TrackFrame:
+        """A car's hint at ``state`` (its model state; rear axle ``x, y, yaw`` first): the
+        frame of row ``i``'s tracker after its command for this state (world frame)."""
+        assert self.cars is not None
+        car = self.cars[i]
+        key = (id(world), float(goal[0]), float(goal[1]))
+        if new_episode or key != self._key[i]:
+            self._key[i], self._world[i] = key, world
+            self._goal[i] = goal[:2]
+            car.reset(state, (float(goal[0]), float(goal[1]), 0.0))
+        car.command(state, self.dt)
+        return car.frame
+
     def waypoint(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray,
                  new_episode: bool) -> tuple[float, float]:
-        """Row ``i``'s hint ``(x, y)`` (m, world frame) at ``pose``."""
+        """Row ``i``'s hint ``(x, y)`` (m, world frame) at ``pose`` (a car's: its frame's
+        ``ahead`` point, :meth:`frame`)."""
+        if self.cars is not None:
+            return self.frame(i, world, pose, goal, new_episode).ahead
         key = (id(world), float(goal[0]), float(goal[1]))
         path = self.paths[i]
         if new_episode or key != self._key[i] or path is None:
             path = self._plan(i, world, pose, goal, key)
         j0 = int(self.idx[i])
-        end = self._search_end(i, j0)
-        win = path[j0:end]
+        win = path[j0:j0 + 40]
         d2 = np.sum((win - pose[:2]) ** 2, axis=1)
         j = j0 + int(np.argmin(d2))
         if d2[j - j0] > self.stray ** 2:
             path = self._plan(i, world, pose, goal, key)
             j = 0
         self.idx[i] = j
-        k = self._ahead_index(i, j)
-        return float(path[k, 0]), float(path[k, 1])
-
-    def _cusp_after(self, i: int, j: int) -> int:
-        """The last sample index of the leg that sample ``j + 1`` drives (a car's next cusp,
-        or the path's end)."""
-        ends = self._leg_ends[i]
-        assert ends is not None
-        return int(ends[min(int(np.searchsorted(ends, j + 1)), len(ends) - 1)])
-
-    def _search_end(self, i: int, j0: int) -> int:
-        end = j0 + 40
-        if self.dirs[i] is not None:  # a car: not past the next cusp before reaching it
-            end = min(end, self._cusp_after(i, j0) + 1)
-        return max(end, j0 + 1)
-
-    def _ahead_index(self, i: int, j: int) -> int:
-        path = self.paths[i]
-        assert path is not None
         k = min(len(path) - 1, j + int(round(self.ahead / self.STEP)))
-        if self.dirs[i] is not None:
-            k = min(k, self._cusp_after(i, j))
-        return k
+        return float(path[k, 0]), float(path[k, 1])
 
     def _plan(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray, key: Any
               ) -> np.ndarray:
-        grid = self._grid_of(world)
-        dirs = None
-        if self.turn_radius is None:
-            path = plan_path(grid, pose[:2], goal[:2])
-        else:
-            from wheelgym.kinematics.reeds_shepp import sample
-
-            rs, _ = plan_car(grid, pose[:3], goal[:2], self.turn_radius)
-            path = None
-            if rs is not None and rs.segments:
-                smp = sample(rs, rs.start, self.STEP)
-                path, dirs = np.ascontiguousarray(smp.poses[:, :2]), smp.direction
+        path = plan_path(self._grid_of(world), pose[:2], goal[:2])
         if path is None:
-            path, dirs = np.asarray(goal[:2], dtype=np.float64)[None].copy(), None
-        self._set_plan(i, path, dirs, key)
+            path = np.asarray(goal[:2], dtype=np.float64)[None].copy()
+        self.paths[i], self.idx[i], self._key[i] = path, 0, key
         return path
-
-    def _set_plan(self, i: int, path: np.ndarray, dirs: np.ndarray | None, key: Any) -> None:
-        """Row ``i``'s plan: points ``(n, 2)`` (m), cars' driving directions ``(n,)``."""
-        self.paths[i], self.dirs[i], self.idx[i], self._key[i] = path, dirs, 0, key
-        self._leg_ends[i] = None if dirs is None else np.append(
-            np.flatnonzero(dirs[:-1] != dirs[1:]), len(dirs) - 1)

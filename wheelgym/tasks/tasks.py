@@ -472,9 +472,12 @@ class NavigateTask(GoalTask):
     v1's observation appends, after the rays: the goal in polar body coordinates
     ``goal_dist`` (m, clipped to 12), ``cos_bearing``, ``sin_bearing``; with
     ``waypoint_hint=True`` also ``waypoint_x_b``, ``waypoint_y_b`` (m): the point 1 m along the
-    planning baseline's plan (:class:`~wheelgym.planning.WaypointHint`: a shortest grid path,
-    for cars the hybrid-A* path up to its next cusp), re-planned when the robot strays from it
-    by 0.5 m.
+    planning baseline's plan (:class:`~wheelgym.planning.WaypointHint`: robots that turn in
+    place a shortest grid path, re-planned when the robot strays from it by 0.5 m; cars the run
+    of the hybrid-A* plan their tracker follows, up to its next cusp), and for cars the rest of
+    the tracker's :class:`~wheelgym.kinematics.car_tracking.TrackFrame`: ``plan_offset`` (m),
+    ``plan_heading`` (rad), ``plan_curvature`` (1/m), ``plan_direction`` (+1, -1, 0),
+    ``plan_remaining`` (m, clipped to 12).
     """
 
     name = "navigate"
@@ -539,13 +542,9 @@ class NavigateTask(GoalTask):
             if self.waypoint_hint:
                 from wheelgym.planning import WaypointHint
 
-                turn = None
-                if not core.spec.turns_in_place:  # a car: the hybrid-A* plan's turn radius
-                    from wheelgym.kinematics.car_tracking import CarTracker
-
-                    turn = CarTracker.from_model(core.model).radius
-                self.hint = WaypointHint(self.arena, core.spec.radius, N, turn_radius=turn)
-            self._polar = np.zeros((N, 3 + 2 * self.waypoint_hint))
+                car = None if core.spec.turns_in_place else core.model
+                self.hint = WaypointHint(self.arena, core.spec.radius, N, car=car, dt=core.dt)
+            self._polar = np.zeros((N, 3 + len(self._hint_layout()[0])))
             self._obs_end = len(self.obs_layout()[0])  # where v1's entries end in core.obs
 
     option_keys = ("start", "goal", "layout_seed")
@@ -598,10 +597,23 @@ class NavigateTask(GoalTask):
             return [], [], []
         names = ["goal_dist", "cos_bearing", "sin_bearing"]
         low, high = [0.0, -1.0, -1.0], [POS_CLIP, 1.0, 1.0]
-        if self.waypoint_hint:
-            names += ["waypoint_x_b", "waypoint_y_b"]
-            low += [-POS_CLIP, -POS_CLIP]
-            high += [POS_CLIP, POS_CLIP]
+        hn, hl, hh = self._hint_layout()
+        return names + hn, low + hl, high + hh
+
+    def _hint_layout(self) -> tuple[list[str], list[float], list[float]]:
+        """The waypoint hint's entries: names, lows, highs (none without the hint)."""
+        if not self.waypoint_hint:
+            return [], [], []
+        names = ["waypoint_x_b", "waypoint_y_b"]
+        low, high = [-POS_CLIP, -POS_CLIP], [POS_CLIP, POS_CLIP]
+        if not self.core.spec.turns_in_place:  # a car: its tracker's frame (WaypointHint)
+            from wheelgym.kinematics.car_tracking import CarTracker
+
+            kappa = 1.0 / CarTracker.from_model(self.core.model).radius
+            names += ["plan_offset", "plan_heading", "plan_curvature", "plan_direction",
+                      "plan_remaining"]
+            low += [-POS_CLIP, -math.pi, -kappa, -1.0, 0.0]
+            high += [POS_CLIP, math.pi, kappa, 1.0, POS_CLIP]
         return names, low, high
 
     def obs_layout(self):
@@ -702,9 +714,18 @@ class NavigateTask(GoalTask):
         out[:, 1] = np.where(d > 0.0, bx / safe, 1.0)
         out[:, 2] = np.where(d > 0.0, by / safe, 0.0)
         if self.hint is not None:
+            car = self.hint.cars is not None
             for n, i in enumerate(rows.tolist()):
-                wx, wy = self.hint.waypoint(i, self.worlds[i], pose[n], self.goal[i],
-                                            c.steps[i] == 0)
+                if car:  # the tracker reads the whole model state (Ackermann: its steering)
+                    f = self.hint.frame(i, self.worlds[i], c.X[i], self.goal[i],
+                                        c.steps[i] == 0)
+                    wx, wy = f.ahead
+                    out[n, 5] = np.clip(f.offset, -POS_CLIP, POS_CLIP)
+                    out[n, 6:9] = f.heading, f.curvature, f.direction
+                    out[n, 9] = min(f.remaining, POS_CLIP)
+                else:
+                    wx, wy = self.hint.waypoint(i, self.worlds[i], pose[n], self.goal[i],
+                                                c.steps[i] == 0)
                 ex, ey = wx - pose[n, 0], wy - pose[n, 1]
                 out[n, 3] = np.clip(cy[n] * ex + sy[n] * ey, -POS_CLIP, POS_CLIP)
                 out[n, 4] = np.clip(-sy[n] * ex + cy[n] * ey, -POS_CLIP, POS_CLIP)
