@@ -60,8 +60,8 @@ from wheelgym.planning.search import (
     shortcut,
 )
 
-__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "car_tracker", "resample",
-           "centre", "PLANNERS", "CAR_SPEED"]
+__all__ = ["PlanningNavigator", "WaypointHint", "plan_path", "plan_car", "plan_car_or_stand",
+           "car_tracker", "resample", "centre", "PLANNERS", "CAR_SPEED"]
 
 #: ``planner=`` choices: ``"astar"`` (grid A* + smoothing; the robots that turn in place),
 #: ``"hybrid"`` (hybrid A* over Reeds-Shepp primitives; the cars), ``"auto"`` (the robot's).
@@ -182,6 +182,16 @@ def plan_car(grid: OccupancyGrid, start: Any, goal_xy: Any, turn_radius: float, 
     return None, used
 
 
+def plan_car_or_stand(grid: OccupancyGrid, pose: Any, goal_xy: Any, turn_radius: float
+                      ) -> tuple[ReedsSheppPath, bool]:
+    """:func:`plan_car`'s plan, or an empty path at ``pose`` (the car stands) when none
+    exists: ``(path, found)``; the plan the planning baseline and the cars' hint both follow."""
+    path, _ = plan_car(grid, pose, goal_xy, turn_radius)
+    if path is None:
+        return path_from_segments([], turn_radius, pose), False
+    return path, True
+
+
 class PlanningNavigator:
     """Plans and tracking commands for every row of a navigate core (module docstring).
 
@@ -267,14 +277,12 @@ class PlanningNavigator:
         t0 = time.perf_counter()
         grid = self._grid(i)
         assert self.cars is not None
-        path, _ = plan_car(grid, pose, self._goal[i], self.cars[i].radius)
+        path, found = plan_car_or_stand(grid, pose, self._goal[i], self.cars[i].radius)
         self.plan_times.append(time.perf_counter() - t0)
         self.plans += 1
         self.replans += int(self.row_plans[i] > 0)  # the tracker's replans of this episode
         self.row_plans[i] += 1
-        if path is None:
-            self.failures += 1
-            return path_from_segments([], self.cars[i].radius, pose)
+        self.failures += int(not found)
         return path
 
     def _plan_row(self, i: int) -> None:
@@ -474,9 +482,8 @@ class WaypointHint:
 
     def _car_plan(self, i: int, pose: np.ndarray) -> ReedsSheppPath:
         assert self.cars is not None
-        r = self.cars[i].radius
-        path, _ = plan_car(self._grid_of(self._world[i]), pose, self._goal[i], r)
-        return path_from_segments([], r, pose) if path is None else path
+        return plan_car_or_stand(self._grid_of(self._world[i]), pose, self._goal[i],
+                                 self.cars[i].radius)[0]
 
     def frame(self, i: int, world: Any, state: np.ndarray, goal: np.ndarray,
               new_episode: bool) -> TrackFrame:

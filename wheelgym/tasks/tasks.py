@@ -606,10 +606,8 @@ class NavigateTask(GoalTask):
             return [], [], []
         names = ["waypoint_x_b", "waypoint_y_b"]
         low, high = [-POS_CLIP, -POS_CLIP], [POS_CLIP, POS_CLIP]
-        if not self.core.spec.turns_in_place:  # a car: its tracker's frame (WaypointHint)
-            from wheelgym.kinematics.car_tracking import CarTracker
-
-            kappa = 1.0 / CarTracker.from_model(self.core.model).radius
+        if self.hint.cars is not None:  # a car: its tracker's frame (WaypointHint)
+            kappa = 1.0 / self.hint.cars[0].radius  # the plan's tightest turn
             names += ["plan_offset", "plan_heading", "plan_curvature", "plan_direction",
                       "plan_remaining"]
             low += [-POS_CLIP, -math.pi, -kappa, -1.0, 0.0]
