@@ -51,6 +51,8 @@ CONTROLLER_MODELS = ("nominal", "true")
 #: Most past actions ``action_history`` may append to the observation (twice the `hard`
 #: perturbation level's 4-step delay).
 MAX_ACTION_HISTORY = 8
+#: Most past observations ``obs_history`` may append (the same bound).
+MAX_OBS_HISTORY = 8
 #: Range backends of the navigate task's range sensor.
 RANGE_BACKENDS = ("analytic", "pymunk")
 
@@ -243,6 +245,10 @@ class EnvConfig:
             ``Perturbation`` (``wheelgym.envs.perturbation``).
         action_history: the last ``k`` actions the policy sent (0 to
             :data:`MAX_ACTION_HISTORY`; 0: none) appended to the observation, newest first.
+        obs_history: the task's observation entries of the last ``k`` steps before this one,
+            as the policy saw them (0 to :data:`MAX_OBS_HISTORY`; 0: none), newest first,
+            after the task's entries and before the action history (a frame stack: with the
+            action history, what a policy needs to tell how the plant answers its inputs).
         render_modes: the render modes the environment class offers (not compared).
     """
 
@@ -268,6 +274,7 @@ class EnvConfig:
     controller_model: str = "nominal"
     perturbation: Perturbation | Mapping[str, Any] | str | None = None
     action_history: int = 0
+    obs_history: int = 0
     render_modes: tuple[str, ...] = dataclasses.field(default=RENDER_MODES, repr=False,
                                                       compare=False)
 
@@ -355,6 +362,13 @@ class EnvConfig:
         if not 0 <= k <= MAX_ACTION_HISTORY:
             raise ValueError(f"action_history must be in [0, {MAX_ACTION_HISTORY}], got {k}")
         put("action_history", int(k))
+        k = self.obs_history
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise TypeError(f"obs_history must be an int (past observations in the "
+                            f"observation), got {k!r}")
+        if not 0 <= k <= MAX_OBS_HISTORY:
+            raise ValueError(f"obs_history must be in [0, {MAX_OBS_HISTORY}], got {k}")
+        put("obs_history", int(k))
 
     def _put(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)

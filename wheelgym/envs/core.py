@@ -246,6 +246,18 @@ class WheelCore:
         #: newest first, appended to the task's entries; zeros at a reset. They are what the
         #: policy commanded, before the perturbation's action faults and delay, and the
         #: observation noise and faults do not touch them (they act on the task's entries).
+        #: ``obs_history``: the task's entries of the last ``ko`` steps before this one, as
+        #: observed (noise and faults included), newest first, after the task's entries;
+        #: ``_ostack`` holds them behind the current ones (a reset fills it with the first).
+        self.n_obs_history = ko = cfg.obs_history
+        self._ostack = np.zeros((N, (ko + 1) * D), dtype=np.float32)
+        if ko:
+            names = [*names, *(f"prev_obs_{t}_{n}" for t in range(1, ko + 1)
+                               for n in names[:D])]
+            high = np.concatenate([high, np.tile(high[:D], ko)])
+            low = np.concatenate([low, np.tile(low[:D], ko)])
+        #: First column of the action history.
+        self._hist0 = D * (ko + 1)
         self.n_history = k = cfg.action_history
         ad = self.action_dim
         self._hist = np.zeros((N, k * ad))
@@ -270,7 +282,7 @@ class WheelCore:
         #: No perturbation, delay, lag, history or noise: a step is the kernels alone (with
         #: the velocity mode's controller), skipping the other stages in one test.
         self._plain = not (self.faults is not None or self._delay or self._lag
-                           or self.n_history or self.obs_noise > 0)
+                           or self.n_history or self.n_obs_history or self.obs_noise > 0)
 
     # ------------------------------------------------------------------ views and copies
     #: Attributes that are views into the blocks ``LH``, ``B`` and ``F`` (or hold such views,
@@ -579,9 +591,13 @@ class WheelCore:
         self._noise(idx)
         if self.faults is not None:
             self.faults.reset_rows(idx, self.obs[:, :self.task_obs_dim])
+        if self.n_obs_history:  # the first observation stands for the steps before it
+            D = self.task_obs_dim
+            self._ostack[idx] = np.tile(self.obs[idx, :D], self.n_obs_history + 1)
+            self.obs[idx, D:self._hist0] = self._ostack[idx, D:]
         if self.n_history:  # no action sent yet
             self._hist[idx] = 0.0
-            self.obs[idx, self.task_obs_dim:] = 0.0
+            self.obs[idx, self._hist0:] = 0.0
         return self.obs
 
     def _noise(self, idx: np.ndarray) -> None:
@@ -661,6 +677,8 @@ class WheelCore:
                 D = self.task_obs_dim
                 self.faults.observations(self.obs[:, :D], rows, self.obs_low[:D],
                                          self.obs_high[:D])
+            if self.n_obs_history:
+                self._push_obs_history()
             if self.n_history:
                 self._push_history(a)
         return self.obs, self.reward, self.term, self.info_buffers
@@ -723,4 +741,12 @@ class WheelCore:
         h, ad = self._hist, self.action_dim
         h[:, ad:] = h[:, :-ad].copy()
         np.clip(sent, -1.0, 1.0, out=h[:, :ad])
-        self.obs[:, self.task_obs_dim:] = h
+        self.obs[:, self._hist0:] = h
+
+    def _push_obs_history(self) -> None:
+        """``obs_history``: the step's task entries join the stack; the ones before it are
+        the appended entries."""
+        st, D = self._ostack, self.task_obs_dim
+        st[:, D:] = st[:, :-D].copy()
+        st[:, :D] = self.obs[:, :D]
+        self.obs[:, D:self._hist0] = st[:, D:]

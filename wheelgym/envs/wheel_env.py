@@ -40,6 +40,7 @@ sanity limits. Layout by task (the robot's features, listed above, come after th
 | (-v1)    | then goal_dist, cos_bearing, sin_bearing (+ waypoint_x_b, _y_b)      | m, -        |
 | (hint)   | cars: + plan_offset, plan_heading, plan_curvature, plan_direction,   | m, rad, 1/m,|
 |          | plan_remaining (the planning baseline's tracking frame)              | -, m        |
+| any      | ``obs_history=k``: then prev_obs_1_<entry> .. prev_obs_k_<entry>      | as the entry|
 | any      | ``action_history=k``: then prev_action_1_0 .. prev_action_k_{n-1}     | action units|
 
 ## Rewards
@@ -177,6 +178,10 @@ there once (the vector env takes the same).
 |                |                   | obs_noise or perturbation faults. With action_delay or  |
 |                |                   | a perturbation's delay, k >= the delay makes the state  |
 |                |                   | Markov again (the actions still to act are observed)    |
+| obs_history    | 0                 | the task's entries of the last k (0-8) steps, as        |
+|                |                   | observed (noise and faults included), newest first,     |
+|                |                   | after the task's entries (``prev_obs_t_<entry>``); a    |
+|                |                   | reset repeats its first observation (a frame stack)     |
 
 Action modes of the dynamic robots (the robot classes' "Action Space" give the scales):
 
