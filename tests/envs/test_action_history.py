@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import wheelgym  # noqa: F401  (registers the ids)
+from tests.envs.conftest import assert_vector_equals_single_across_autoresets
 from wheelgym.envs.config import MAX_ACTION_HISTORY
-from wheelgym.vector import WheelVectorEnv
 
 CASES = [("DiffDrive", "v0", dict(task="goal", action_mode="WheelSpeeds")),
          ("SkidSteer", "v0", dict(task="track", action_mode="velocity", perturbation="medium")),
@@ -51,25 +51,7 @@ def test_history_is_the_sent_actions_and_leaves_the_task_entries_bit_equal(robot
 
 
 def test_vector_env_equals_single_env_across_autoresets():
-    kw = dict(robot="SkidSteer", task="goal", action_mode="torque", perturbation="hard",
-              max_episode_steps=6, action_history=2)
-    ve = WheelVectorEnv(3, **kw)
-    single = [gym.make("wheelgym/SkidSteer-v0", **{k: v for k, v in kw.items() if k != "robot"})
-              for _ in range(3)]
-    vo, _ = ve.reset(seed=[1, 2, 3])
-    so = [e.reset(seed=s)[0] for e, s in zip(single, [1, 2, 3], strict=True)]
-    assert np.array_equal(vo, np.array(so))
-    rng = np.random.default_rng(4)
-    for t in range(15):
-        A = rng.uniform(-1, 1, (3, 4))
-        vo, vr, *_ = ve.step(A)
-        for i, e in enumerate(single):
-            if t % 7 == 6:  # next-step autoreset: the single env resets from its generator
-                o, _ = e.reset()
-            else:
-                o, r, *_ = e.step(A[i])
-                assert vr[i] == r
-            assert np.array_equal(vo[i], o), (t, i)
+    assert_vector_equals_single_across_autoresets(perturbation="hard", action_history=2)
 
 
 @pytest.mark.parametrize("bad,err", [(-1, ValueError), (MAX_ACTION_HISTORY + 1, ValueError),

@@ -159,6 +159,15 @@ def _check_delay(name: str, value: Any) -> int:
     return int(value)
 
 
+def _check_history(name: str, k: Any, high: int, what: str) -> int:
+    """An observation history's length: an int in [0, high] (``what``: what it appends)."""
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+        raise TypeError(f"{name} must be an int ({what} in the observation), got {k!r}")
+    if not 0 <= k <= high:
+        raise ValueError(f"{name} must be in [0, {high}], got {k}")
+    return int(k)
+
+
 def _check_delay_range(v: Any) -> tuple[int, int]:
     """``randomize["action_delay"]`` as ints ``(low, high)``, 0 <= low <= high <= max."""
     name = "randomize['action_delay']"
@@ -355,20 +364,10 @@ class EnvConfig:
         if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
             raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
                              "(version=1) only")
-        k = self.action_history
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
-            raise TypeError(f"action_history must be an int (past actions in the observation), "
-                            f"got {k!r}")
-        if not 0 <= k <= MAX_ACTION_HISTORY:
-            raise ValueError(f"action_history must be in [0, {MAX_ACTION_HISTORY}], got {k}")
-        put("action_history", int(k))
-        k = self.obs_history
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
-            raise TypeError(f"obs_history must be an int (past observations in the "
-                            f"observation), got {k!r}")
-        if not 0 <= k <= MAX_OBS_HISTORY:
-            raise ValueError(f"obs_history must be in [0, {MAX_OBS_HISTORY}], got {k}")
-        put("obs_history", int(k))
+        put("action_history", _check_history("action_history", self.action_history,
+                                             MAX_ACTION_HISTORY, "past actions"))
+        put("obs_history", _check_history("obs_history", self.obs_history, MAX_OBS_HISTORY,
+                                          "past observations"))
 
     def _put(self, name: str, value: Any) -> None:
         object.__setattr__(self, name, value)  # the normalised value (frozen dataclass)
