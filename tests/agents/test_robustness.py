@@ -129,3 +129,19 @@ def test_results_page_is_the_committed_csv_written_out(tmp_path):
     assert main(["robustness", "--page", str(out), "--csv", str(csv_path)]) == 0
     assert "## Summary" in out.read_text() and "ThreeWheel-goal-torque" in out.read_text()
     assert main(["robustness"]) == 2  # neither a TARGET nor --page
+
+
+def test_wilson_interval_solves_its_defining_quadratic():
+    """The endpoints are the two rates p with (k/n - p)^2 = z^2 p (1 - p) / n; 43 of 50 gives
+    [0.7381, 0.9305] (scipy.stats.binomtest(43, 50).proportion_ci(method="wilson"))."""
+    from wheelgym.agents.robustness_page import wilson_interval
+
+    lo, hi = wilson_interval(43, 50)
+    assert (lo, hi) == pytest.approx((0.7381380628941446, 0.9304916657298371), abs=1e-12)
+    for k, n in ((43, 50), (181, 200), (1, 7)):
+        for p in wilson_interval(k, n):
+            assert (k / n - p) ** 2 == pytest.approx(1.959963984540054 ** 2 * p * (1 - p) / n,
+                                                rel=1e-9)
+    assert wilson_interval(50, 50)[1] == 1.0 and wilson_interval(0, 50)[0] == 0.0
+    with pytest.raises(ValueError, match="n must be >= 1"):
+        wilson_interval(0, 0)

@@ -28,7 +28,7 @@ from wheelgym.agents.robustness import (
 )
 from wheelgym.registration import ENV_CLASSES
 
-__all__ = ["COMBINED", "falls_at", "render_page", "write_page"]
+__all__ = ["COMBINED", "falls_at", "render_page", "wilson_interval", "write_page"]
 
 #: The combined levels, the nominal first (``wheelgym.envs.perturbation.LEVELS``).
 COMBINED = ("none", "easy", "medium", "hard")
@@ -85,7 +85,8 @@ def _robust(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
     lines = ["## Robust agents at `medium`", "",
              "Agents trained under the `medium` level (`configs/*-robust.yml`) against the agents "
              "of the same config trained on the nominal robot, on the same episodes. Goal: "
-             f"success at `medium` (target >= {SUCCESS_MIN:.0f}%); track: the RMS error at "
+             f"success at `medium` (target >= {SUCCESS_MIN:.0f}%) with its 95% Wilson interval "
+             "over the episodes (at 50 episodes one episode is 2 points); track: the RMS error at "
              "`medium` over the agent's own RMS without perturbation (target <= "
              f"{RMS_FACTOR:g}x), with the RMS at `medium`.", "",
              "| robust agent | criterion | robust agent | nominal-trained agent | baseline-nom | "
@@ -102,12 +103,33 @@ def _robust(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
     return lines + [""]
 
 
+def wilson_interval(successes: float, n: int, z: float = 1.959963984540054
+                    ) -> tuple[float, float]:
+    """The Wilson score interval of a success rate (``z``: the normal 97.5% quantile, a 95%
+    interval): the rates ``p`` with
+    ``(successes / n - p)^2 <= z^2 p (1 - p) / n``. Returns ``(low, high)`` as fractions."""
+    if n < 1:
+        raise ValueError(f"n must be >= 1, got {n!r}")
+    p, z2 = successes / n, z * z
+    centre = (p + z2 / (2 * n)) / (1 + z2 / n)
+    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n)
+    # (0 and 1 exactly at the ends, where centre -/+ half leaves a round-off)
+    return (0.0 if p <= 0 else centre - half), (1.0 if p >= 1 else centre + half)
+
+
+def _success_with_interval(r: dict[str, str]) -> str:
+    """``"86% [74, 93]"``: the success rate and its 95% Wilson interval over the episodes."""
+    s, n = csv_number(r["success"]), int(csv_number(r["episodes"]))
+    lo, hi = wilson_interval(round(s * n / 100), n)
+    return f"{s:.0f}% [{100 * lo:.0f}, {100 * hi:.0f}]"
+
+
 def _at_medium(comb: dict[tuple[str, str], dict[str, str]], policy: str, track: bool) -> str:
     med, none = comb.get((policy, "medium")), comb.get((policy, "none"))
     if med is None or none is None:
         return "n/a"
     if not track:
-        return f"{csv_number(med['success']):.0f}%"
+        return _success_with_interval(med)
     rms, nominal = csv_number(med["rms"]), csv_number(none["rms"])
     ratio = rms / nominal if nominal > 0 else math.inf
     return f"{ratio:.1f}x ({1000 * rms:.0f} mm)"
