@@ -252,6 +252,9 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--page", type=Path, default=None, metavar="RESULTS.md",
                    help="also write the results page (the full table and the curves), e.g. "
                         "docs/topics/results.md")
+    b.add_argument("--navigate-page", type=Path, default=None, metavar="PAGE.md",
+                   help="also put the navigate configs' seeds between the navigate-rows "
+                        "markers of this file, e.g. docs/topics/planning.md")
 
     r = sub.add_parser("pretrained", help="list the shipped agents, or export them from the "
                                           "benchmark CSV")
@@ -462,6 +465,13 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         run_benchmark,
         update_readme,
     )
+    from wheelgym.agents.table import (
+        NAVIGATE_BEGIN,
+        NAVIGATE_END,
+        between,
+        navigate_rows,
+        update_between,
+    )
 
     csv_path = a.csv if a.csv is not None else DEFAULT_CSV
     if a.out is not None:
@@ -470,6 +480,11 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         _check_writable_file(a.curves, "--curves")
     if a.page is not None:
         _check_writable_file(a.page, "--page")
+    if a.navigate_page is not None and (  # before any training: a typo costs nothing
+            not a.navigate_page.is_file()
+            or between(a.navigate_page.read_text(), NAVIGATE_BEGIN, NAVIGATE_END) is None):
+        raise ValueError(f"--navigate-page {a.navigate_page}: not a file with the markers "
+                         f"{NAVIGATE_BEGIN!r} ... {NAVIGATE_END!r}")
     if a.rescore:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
@@ -516,11 +531,13 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
-    if a.readme is not None or a.page is not None:
+    if a.readme is not None or a.page is not None or a.navigate_page is not None:
         names = {p.stem for p in a.configs}
         rows = [r for r in read_rows(csv_path) if not names or r["config"] in names]
         if a.readme is not None:
             update_readme(a.readme, readme_summary(rows))
+        if a.navigate_page is not None:
+            update_between(a.navigate_page, NAVIGATE_BEGIN, NAVIGATE_END, navigate_rows(rows))
         if a.page is not None:
             shipped = [p.stem for p in default_configs()] if not names else sorted(names)
             a.page.write_text(results_page(rows, configs=shipped) + "\n")

@@ -347,8 +347,8 @@ def test_the_results_page_and_the_readme_summary_are_the_csv_s(tmp_path):
     page = root / "docs" / "topics" / "results.md"
     shipped = [p.stem for p in default_configs()]
     assert page.read_text() == results_page(rows, configs=shipped) + "\n"
-    assert "Configs without rows yet: `Bicycle-goal-VehicleSpeedSteeringAngle-her`" in (
-        page.read_text())
+    assert "Configs without rows yet: `nowhere`." in results_page(rows, configs=[*shipped,
+                                                                               "nowhere"])
     readme = tmp_path / "README.md"
     readme.write_text(f"# x\n{README_BEGIN}\nstale\n{README_END}\nrest\n")
     out = tmp_path / "results.md"
@@ -403,3 +403,38 @@ def test_pool_worker_compiles_with_one_numba_thread():
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def test_the_planning_page_s_navigate_seeds_are_the_csv_s(tmp_path, capsys):
+    """The navigate seeds tables of docs/topics/planning.md are what the generator makes of the
+    committed CSV; --navigate-page writes them between the markers and refuses a file without
+    them before training anything."""
+    from wheelgym.agents.table import NAVIGATE_BEGIN, NAVIGATE_END, between, navigate_rows
+
+    root = Path(__file__).resolve().parents[2]
+    rows = read_rows(root / DEFAULT_CSV)
+    body = navigate_rows(rows)
+    assert between((root / "docs/topics/planning.md").read_text(), NAVIGATE_BEGIN,
+                   NAVIGATE_END) == body
+    # one line per navigate config with rows, random arenas first, then the maps
+    names = [line.split(" | ")[0][2:] for line in body.splitlines()
+             if line.startswith("| ") and not line.startswith("| config")]
+    assert sorted(names) == sorted({r["config"] for r in rows if "-navigate-" in r["config"]})
+    first_map = next(i for i, n in enumerate(names) if "-office-" in n or "-warehouse-" in n)
+    assert all("-office-" in n or "-warehouse-" in n for n in names[first_map:])
+    one = [r for r in rows if r["config"] == names[0]]
+    seeds = " / ".join(f"{100 * float(r['agent_success']):.0f}"
+                       for r in sorted(one, key=lambda r: int(float(r["seed"]))))
+    assert f"| {names[0]} | " in body and f" | {seeds}% | " in body
+    page = tmp_path / "p.md"
+    page.write_text(f"# p\n{NAVIGATE_BEGIN}\nstale\n{NAVIGATE_END}\nrest\n")
+    assert main(["benchmark", "--table", "--csv", str(root / DEFAULT_CSV), "--navigate-page",
+                 str(page)]) == 0
+    assert between(page.read_text(), NAVIGATE_BEGIN, NAVIGATE_END) == body
+    assert page.read_text().endswith(f"{NAVIGATE_END}\nrest\n")
+    plain = tmp_path / "x.md"
+    plain.write_text("# x\n")
+    assert _run_main(["benchmark", "configs/nowhere.yml", "--navigate-page", str(plain)]) == 2
+    err = capsys.readouterr().err
+    assert "--navigate-page" in err and "x.md: not a file with the markers" in err
+

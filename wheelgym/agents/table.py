@@ -11,7 +11,9 @@ and stated for the worst seed as well.
 :func:`format_table` is the full Markdown table, :func:`results_page` the page
 ``docs/topics/results.md`` around it (with the learning-curve images), :func:`readme_summary`
 the short summary that :func:`update_readme` puts between the README's markers
-(:data:`README_BEGIN`, :data:`README_END`).
+(:data:`README_BEGIN`, :data:`README_END`), :func:`navigate_rows` the navigate configs' seeds
+that :func:`update_between` puts between :data:`NAVIGATE_BEGIN` and :data:`NAVIGATE_END`
+(``docs/topics/planning.md``).
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ from wheelgym.agents.store import parse_number
 
 __all__ = ["TABLE_HEAD", "README_BEGIN", "README_END", "load_targets", "target_misses", "iqm",
            "bootstrap_ci", "format_table", "results_page", "readme_summary", "update_readme",
-           "readme_table"]
+           "readme_table", "NAVIGATE_BEGIN", "NAVIGATE_END", "navigate_rows", "update_between",
+           "between"]
 
 #: Resamples of the bootstrap, and the seed its generators start from (per cell: this plus a
 #: CRC of the config name and column, so that a cell does not depend on the table's order).
@@ -377,26 +380,74 @@ README_BEGIN = "<!-- results-summary: begin -->"
 README_END = "<!-- results-summary: end -->"
 
 
-def _table_span(text: str) -> tuple[int, int] | None:
-    """Where the summary between the README markers starts and ends in ``text`` (None: no
-    markers)."""
-    i, j = text.find(README_BEGIN), text.find(README_END)
-    return None if i < 0 or j < i else (i + len(README_BEGIN), j)
+NAVIGATE_BEGIN = "<!-- navigate-rows: begin -->"
+NAVIGATE_END = "<!-- navigate-rows: end -->"
+
+
+def _table_span(text: str, begin: str = README_BEGIN, end: str = README_END
+                ) -> tuple[int, int] | None:
+    """Where the text between the markers ``begin`` and ``end`` starts and ends in ``text``
+    (None: no markers)."""
+    i, j = text.find(begin), text.find(end)
+    return None if i < 0 or j < i else (i + len(begin), j)
+
+
+def between(text: str, begin: str, end: str) -> str | None:
+    """The text between the markers ``begin`` and ``end`` (None when they are missing)."""
+    span = _table_span(text, begin, end)
+    return None if span is None else text[span[0]:span[1]].strip("\n")
+
+
+def update_between(path: str | Path, begin: str, end: str, body: str) -> None:
+    """Put ``body`` between the markers ``begin`` and ``end`` of the Markdown file ``path``
+    (``ValueError`` naming the file and the markers when they are missing)."""
+    path = Path(path)
+    text = path.read_text()
+    span = _table_span(text, begin, end)
+    if span is None:
+        raise ValueError(f"{path}: no markers {begin!r} ... {end!r}")
+    path.write_text(text[:span[0]] + "\n" + body + "\n" + text[span[1]:])
+
+
+def _range(values: Sequence[float], unit: str) -> str:
+    return f"{min(values):.0f}-{max(values):.0f}{unit}"
+
+
+def navigate_rows(rows: Sequence[dict[str, str]]) -> str:
+    """The navigate configs' seeds as two tables, the random arenas then the maps: per config
+    its recipe, each seed's success (in seed order), the range of the seeds' saturation, the
+    reactive baseline's success and the range of the seeds' training time."""
+    by: dict[str, list[dict[str, str]]] = {}
+    for r in rows:
+        if "-navigate-" in r["config"]:
+            by.setdefault(r["config"], []).append(r)
+    maps = {c for c in by if "-office-" in c or "-warehouse-" in c}
+    head = ["| config | recipe | success by seed (0, 1, ...) | saturation | reactive baseline | "
+            "time a seed |", "|---|---|---|---|---|---|"]
+    out: list[str] = []
+    for group in (sorted(set(by) - maps), sorted(maps)):
+        if not group:
+            continue
+        out += ([""] if out else []) + head
+        for c in group:
+            rs = sorted(by[c], key=lambda r: int(float(r["seed"])))
+            success = " / ".join(f"{100 * float(r['agent_success']):.0f}" for r in rs)
+            sat = [100 * (parse_number(r["agent_saturation"]) or 0.0) for r in rs]
+            base = 100 * float(rs[0]["baseline_success"])
+            out.append(f"| {c} | {_recipe(rs, None)} | {success}% | {_range(sat, '%')} | "
+                       f"{base:.0f}% | {_range([float(r['train_s']) for r in rs], ' s')} |")
+    return "\n".join(out)
 
 
 def readme_table(text: str) -> str | None:
     """The text between the README markers (:data:`README_BEGIN`, :data:`README_END`), or
     None when the markers are missing."""
-    span = _table_span(text)
-    return None if span is None else text[span[0]:span[1]].strip("\n")
+    return between(text, README_BEGIN, README_END)
 
 
 def update_readme(path: str | Path, summary: str) -> None:
     """Put ``summary`` between the results markers of the Markdown file ``path`` (``ValueError``
     naming the file when they are missing)."""
-    path = Path(path)
-    text = path.read_text()
-    span = _table_span(text)
-    if span is None:
+    if _table_span(Path(path).read_text()) is None:
         raise ValueError(f"{path}: no results markers ({README_BEGIN!r} ... {README_END!r})")
-    path.write_text(text[:span[0]] + "\n" + summary + "\n" + text[span[1]:])
+    update_between(path, README_BEGIN, README_END, summary)
