@@ -455,22 +455,20 @@ def _cmd_tune(a: argparse.Namespace) -> int:
 def _cmd_benchmark(a: argparse.Namespace) -> int:
     from wheelgym.agents.benchmark import (
         DEFAULT_CSV,
+        NAVIGATE_BEGIN,
+        NAVIGATE_END,
+        between,
         default_configs,
         format_table,
+        navigate_rows,
         plot_curves,
         read_rows,
         readme_summary,
         rescore,
         results_page,
         run_benchmark,
-        update_readme,
-    )
-    from wheelgym.agents.table import (
-        NAVIGATE_BEGIN,
-        NAVIGATE_END,
-        between,
-        navigate_rows,
         update_between,
+        update_readme,
     )
 
     csv_path = a.csv if a.csv is not None else DEFAULT_CSV
@@ -537,7 +535,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         if a.readme is not None:
             update_readme(a.readme, readme_summary(rows))
         if a.navigate_page is not None:
-            update_between(a.navigate_page, NAVIGATE_BEGIN, NAVIGATE_END, navigate_rows(rows))
+            update_between(a.navigate_page, NAVIGATE_BEGIN, NAVIGATE_END, navigate_rows(rows),
+                           what="navigate-rows")
         if a.page is not None:
             shipped = [p.stem for p in default_configs()] if not names else sorted(names)
             a.page.write_text(results_page(rows, configs=shipped) + "\n")

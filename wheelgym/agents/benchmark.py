@@ -10,7 +10,8 @@ module                     job
 :mod:`~.store`             the results CSV: locked appends, rewrites, ``config_sha`` digests
 :mod:`~.rescore`           scoring a CSV's runs again from their folders
 :mod:`~.table`             the Markdown table (IQM, bootstrap CI, worst seed, recipe,
-                           targets from ``targets.yml``), the results page, the README summary
+                           targets from ``targets.yml``), the results page, the README summary,
+                           the planning page's navigate seeds
 :mod:`~.plots`             learning curves from the runs' eval.csv
 ========================== ===================================================================
 
@@ -25,14 +26,19 @@ from wheelgym.agents.rescore import rescore
 from wheelgym.agents.scoring import EVAL_SEED, steps_to_baseline
 from wheelgym.agents.store import COLUMNS, DEFAULT_CSV, config_digest, read_rows
 from wheelgym.agents.table import (
+    NAVIGATE_BEGIN,
+    NAVIGATE_END,
     README_BEGIN,
     README_END,
+    between,
     format_table,
     load_targets,
+    navigate_rows,
     readme_summary,
     readme_table,
     results_page,
     target_misses,
+    update_between,
     update_readme,
 )
 
@@ -42,6 +48,8 @@ __all__ = [
     "EVAL_SEED",
     "README_BEGIN",
     "README_END",
+    "NAVIGATE_BEGIN",
+    "NAVIGATE_END",
     "run_benchmark",
     "run_jobs",
     "read_rows",
@@ -50,6 +58,9 @@ __all__ = [
     "readme_summary",
     "readme_table",
     "update_readme",
+    "navigate_rows",
+    "between",
+    "update_between",
     "load_targets",
     "target_misses",
     "plot_curves",

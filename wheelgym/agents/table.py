@@ -384,8 +384,7 @@ NAVIGATE_BEGIN = "<!-- navigate-rows: begin -->"
 NAVIGATE_END = "<!-- navigate-rows: end -->"
 
 
-def _table_span(text: str, begin: str = README_BEGIN, end: str = README_END
-                ) -> tuple[int, int] | None:
+def _table_span(text: str, begin: str, end: str) -> tuple[int, int] | None:
     """Where the text between the markers ``begin`` and ``end`` starts and ends in ``text``
     (None: no markers)."""
     i, j = text.find(begin), text.find(end)
@@ -398,14 +397,16 @@ def between(text: str, begin: str, end: str) -> str | None:
     return None if span is None else text[span[0]:span[1]].strip("\n")
 
 
-def update_between(path: str | Path, begin: str, end: str, body: str) -> None:
+def update_between(path: str | Path, begin: str, end: str, body: str, what: str = "") -> None:
     """Put ``body`` between the markers ``begin`` and ``end`` of the Markdown file ``path``
-    (``ValueError`` naming the file and the markers when they are missing)."""
+    (``ValueError`` naming the file, the ``what`` markers and the markers themselves when they
+    are missing)."""
     path = Path(path)
     text = path.read_text()
     span = _table_span(text, begin, end)
     if span is None:
-        raise ValueError(f"{path}: no markers {begin!r} ... {end!r}")
+        raise ValueError(f"{path}: no {what + ' ' if what else ''}markers ({begin!r} ... "
+                         f"{end!r})")
     path.write_text(text[:span[0]] + "\n" + body + "\n" + text[span[1]:])
 
 
@@ -448,6 +449,4 @@ def readme_table(text: str) -> str | None:
 def update_readme(path: str | Path, summary: str) -> None:
     """Put ``summary`` between the results markers of the Markdown file ``path`` (``ValueError``
     naming the file when they are missing)."""
-    if _table_span(Path(path).read_text()) is None:
-        raise ValueError(f"{path}: no results markers ({README_BEGIN!r} ... {README_END!r})")
-    update_between(path, README_BEGIN, README_END, summary)
+    update_between(path, README_BEGIN, README_END, summary, what="results")
