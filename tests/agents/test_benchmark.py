@@ -337,6 +337,29 @@ def test_target_misses(config, values, misses):
     assert target_misses(config, _col(values)) == misses
 
 
+@pytest.mark.parametrize("config, values, misses", [
+    # goal and track: >= 90% (not the mean's 95%), goal also >= baseline - 10 points
+    ("ThreeWheel-goal-velocity", {"agent_success": [0.92], "baseline_success": [1.0]}, []),
+    ("ThreeWheel-goal-velocity", {"agent_success": [0.88], "baseline_success": [1.0]},
+     ["success"]),
+    ("DiffDrive-track-WheelSpeeds", {"agent_success": [0.90]}, []),
+    ("DiffDrive-track-WheelSpeeds", {"agent_success": [0.86]}, ["success"]),
+    # navigate: >= baseline - 10 (not - 5)
+    ("SkidSteer-navigate-velocity", {"agent_success": [0.86], "baseline_success": [0.94]}, []),
+    ("CasterAGV-navigate-velocity", {"agent_success": [0.86], "baseline_success": [1.0]},
+     ["success"]),
+    # the other targets are the mean's
+    ("Unicycle-navigate-WheelSpeedHeadingRate",
+     {"agent_success": [0.96], "baseline_success": [0.96], "agent_saturation": [0.9]},
+     ["saturation"]),
+])
+def test_the_worst_seed_is_judged_on_its_own_success_targets(config, values, misses):
+    assert target_misses(config, _col(values), worst_seed=True) == misses
+    # the same rows judged as means: the stricter 95% and baseline - 5
+    if config in ("ThreeWheel-goal-velocity", "SkidSteer-navigate-velocity"):
+        assert "success" in target_misses(config, _col(values))
+
+
 def test_the_results_page_and_the_readme_summary_are_the_csv_s(tmp_path):
     """docs/topics/results.md is what the generator makes of the committed CSV; --page and
     --readme write it and the README summary in place."""
