@@ -131,9 +131,12 @@ def target_misses(config: str, col: Callable[[str], list[float | None]],
     miss = []
     succ, base = m["agent_success"], m["baseline_success"]
     if succ is not None:
-        floor = ({"goal": t["worst_seed_success"], "track": t["worst_seed_success"]} if worst_seed
-                 else {"goal": t["goal_success"], "track": t["track_success"]}).get(task, 0.0)
-        below = t["worst_seed_below_baseline" if worst_seed else "below_baseline"]
+        if worst_seed:
+            floor = t["worst_seed_success"] if task in ("goal", "track") else 0.0
+            below = t["worst_seed_below_baseline"]
+        else:
+            floor = {"goal": t["goal_success"], "track": t["track_success"]}.get(task, 0.0)
+            below = t["below_baseline"]
         if base is not None:
             floor = max(floor, base - below) if task != "track" else floor
         if succ < floor - 1e-9:
@@ -222,8 +225,7 @@ def _targets_cell(name: str, rs: list[dict[str, str]], targets: dict[str, float]
     def col(c: str, rs: list[dict[str, str]] = rs) -> list[float | None]:
         return [parse_number(r.get(c)) for r in rs]
 
-    misses = target_misses(name, col, targets, worst_seed)
-    return ", ".join(f"**{m}**" for m in misses) or "met"
+    return ", ".join(f"**{m}**" for m in target_misses(name, col, targets, worst_seed)) or "met"
 
 
 TABLE_HEAD: tuple[str, ...] = (
