@@ -69,18 +69,6 @@ suppress_warnings = [
     "myst.header",
 ]
 
-#: The index's glob toctree of docs/topics/ (pages written by several branches): dropped
-#: from the index when no page is there, since Sphinx warns on an empty glob.
-TOPICS_TOCTREE = "```{toctree}\n:maxdepth: 1\n:caption: Topics\n:glob:\n\ntopics/*\n```\n"
-
-
-def _drop_empty_topics(app, docname, source):
-    if docname == "index" and not any((Path(app.srcdir) / "topics").glob("*.md")):
-        if TOPICS_TOCTREE not in source[0]:
-            raise RuntimeError("docs/index.md: the topics toctree is not conf.TOPICS_TOCTREE")
-        source[0] = source[0].replace(TOPICS_TOCTREE, "")
-
-
 _MARKDOWN = re.compile(r"^\s*(#{1,6} |\|.*\|\s*$)")
 
 
@@ -137,4 +125,3 @@ def _broken_rst_as_literal(app, what, name, obj, options, lines):
 def setup(app):
     app.connect("autodoc-process-docstring", _docstring_as_literal, priority=400)
     app.connect("autodoc-process-docstring", _broken_rst_as_literal, priority=600)
-    app.connect("source-read", _drop_empty_topics)

@@ -126,19 +126,16 @@ def test_validation_page_shows_the_current_report() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("topics", [(), ("performance", "clients")])
-def test_site_builds_strictly_with_or_without_topic_pages(topics, tmp_path: Path) -> None:
-    """docs/topics/ is written by several branches: the strict build (``make docs``'s flags)
-    passes with none or some of its pages, and the index lists those present."""
+def test_a_new_topic_page_is_listed_by_the_index_in_a_strict_build(tmp_path: Path) -> None:
+    """The index's glob toctree takes every page of docs/topics/: a page added there builds
+    strictly (``make docs``'s flags) and is linked from the index beside the others."""
     pytest.importorskip("sphinx")
     import shutil
 
     src = tmp_path / "docs"
-    shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build", "topics"))
+    shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build"))
     (tmp_path / "benchmarks").symlink_to(ROOT / "benchmarks")  # the pages' figures
-    (src / "topics").mkdir()
-    for name in topics:
-        (src / "topics" / f"{name}.md").write_text(f"# {name.title()}\n\nA [link](../index.md).\n")
+    (src / "topics" / "zz-new-topic.md").write_text("# A new topic\n\nA [link](../index.md).\n")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT),
                                                         os.environ.get("PYTHONPATH", "")])}
     r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
@@ -146,6 +143,5 @@ def test_site_builds_strictly_with_or_without_topic_pages(topics, tmp_path: Path
                        text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]
     index = (tmp_path / "html" / "index.html").read_text(encoding="utf-8")
-    for name in topics:
-        assert f'href="topics/{name}.html"' in index
-    assert ("Topics" in index) == bool(topics)
+    for page in sorted((src / "topics").glob("*.md")):
+        assert f'href="topics/{page.stem}.html"' in index, page.name
