@@ -103,6 +103,29 @@ def test_gaps_of_a_hand_made_world():
                                [~inside_box & outside] - r, atol=1e-12)
 
 
+@pytest.mark.parametrize("clockwise", [False, True])
+def test_a_rotated_box_is_solid_inside(clockwise):
+    # a 1 x 1 m box turned by 30 deg about (0.3, -0.2); its cells are those whose centre has
+    # |u|, |v| < 0.5 m in the box's own frame
+    c, s, cx, cy = math.cos(math.pi / 6), math.sin(math.pi / 6), 0.3, -0.2
+    corners = [(cx + c * u - s * v, cy + s * u + c * v)
+               for u, v in ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5))]
+    if clockwise:
+        corners = corners[::-1]
+    box = [(*a, *b) for a, b in zip(corners, corners[1:] + corners[:1], strict=True)]
+    world = World(np.zeros((0, 3)), np.vstack([Arena(half_size=2.0).walls(), box]),
+                  np.zeros(3), np.zeros(3))
+    grid = grid_from_world(world, Arena(half_size=2.0), 0.0, res=0.05)
+    p = grid.centres()
+    u = c * (p[..., 0] - cx) + s * (p[..., 1] - cy)
+    v = -s * (p[..., 0] - cx) + c * (p[..., 1] - cy)
+    inside = (np.abs(u) < 0.5 - 1e-9) & (np.abs(v) < 0.5 - 1e-9)
+    outside = (np.abs(u) > 0.5 + 1e-9) | (np.abs(v) > 0.5 + 1e-9)
+    assert inside.sum() > 300  # about 400 cells of 5 cm
+    assert np.all(grid.gap[inside] < 0)
+    assert np.all(grid.gap[outside] > 0)
+
+
 def test_map_grid_agrees_with_the_maps_free_test():
     arena = load_map("maze")
     r = 0.35

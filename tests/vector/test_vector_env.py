@@ -86,6 +86,19 @@ def test_matches_single_env_pymunk_ranges():
     rollout_equal(vec, ref, 12)
 
 
+@pytest.mark.parametrize("robot", ["DiffDrive", "Bicycle"])
+def test_matches_single_env_with_the_waypoint_hint(robot):
+    """navigate -v1's hint, computed for all rows at once (DiffDrive: the path search of
+    WaypointHint.points; Bicycle: each row's car tracker), equals each single env's, through
+    episode starts and replans after straying (random actions stray)."""
+    kw = dict(task="navigate", waypoint_hint=True, max_episode_steps=40)
+    eid = env_id(robot, 1)
+    vec = gym.make_vec(eid, num_envs=4, vectorization_mode="vector_entry_point", **kw)
+    ref = SyncVectorEnv([lambda: gym.make(eid, **kw) for _ in range(4)])
+    _, ntrunc = rollout_equal(vec, ref, 90, bang=0.3)
+    assert ntrunc > 0
+
+
 @pytest.mark.parametrize("robot", ["ThreeWheel", "SkidSteer"])
 def test_matches_single_env_in_vectorised_blocks(robot):
     """From LANES rows on, the dynamic robots step in blocks of robots evaluated together

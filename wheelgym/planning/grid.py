@@ -147,19 +147,30 @@ def grid_from_world(world: Any, arena: Any, radius: float, res: float = 0.05
         solid = ~((pts[:, 0] > x0) & (pts[:, 0] < x1) & (pts[:, 1] > y0) & (pts[:, 1] < y1))
         boxes = segs[4:].reshape(-1, 4, 4)
         for box in boxes:
-            solid |= _in_convex(pts, box[:, :2])
+            _k_in_convex(pts, np.ascontiguousarray(box[:, :2]), solid)
     gap[solid] = -np.abs(gap[solid]) - radius
     grid.gap = gap.reshape(H, W)
     return grid
 
 
-def _in_convex(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Which points lie inside the convex polygon of ``corners (k, 2)`` (either orientation)."""
-    a = corners
-    b = np.roll(corners, -1, axis=0)
-    cross = ((b[:, 0] - a[:, 0])[None] * (pts[:, 1, None] - a[:, 1][None])
-             - (b[:, 1] - a[:, 1])[None] * (pts[:, 0, None] - a[:, 0][None]))
-    return np.all(cross > 0, axis=1) | np.all(cross < 0, axis=1)
+@njit(cache=True)
+def _k_in_convex(pts, corners, inside):  # pragma: no cover - compiled
+    """Set ``inside[i]`` where ``pts[i]`` lies inside the convex polygon of ``corners (k, 2)``
+    (either orientation): every edge's cross product with the point has one sign."""
+    k = corners.shape[0]
+    for i in range(pts.shape[0]):
+        pos = True
+        neg = True
+        for e in range(k):
+            ax = corners[e, 0]
+            ay = corners[e, 1]
+            bx = corners[(e + 1) % k, 0]
+            by = corners[(e + 1) % k, 1]
+            cross = (bx - ax) * (pts[i, 1] - ay) - (by - ay) * (pts[i, 0] - ax)
+            pos = pos and cross > 0
+            neg = neg and cross < 0
+        if pos or neg:
+            inside[i] = True
 
 
 def _positive(name: str, v: Any) -> float:

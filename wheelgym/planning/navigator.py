@@ -127,10 +127,10 @@ def centre(grid: OccupancyGrid, path: np.ndarray, pref: float, iters: int = 30,
     H, W = grid.gap.shape
     p = path.copy()
 
-    def look(a: np.ndarray, q: np.ndarray) -> np.ndarray:
-        j = np.clip(np.floor((q[:, 0] - grid.origin[0]) / grid.res).astype(np.int64), 0, W - 1)
-        i = np.clip(np.floor((q[:, 1] - grid.origin[1]) / grid.res).astype(np.int64), 0, H - 1)
-        return a[i, j]
+    def look(a: np.ndarray, q: np.ndarray) -> np.ndarray:  # (np.clip costs more here)
+        j = np.floor((q[:, 0] - grid.origin[0]) / grid.res).astype(np.int64)
+        i = np.floor((q[:, 1] - grid.origin[1]) / grid.res).astype(np.int64)
+        return a[np.minimum(np.maximum(i, 0), H - 1), np.minimum(np.maximum(j, 0), W - 1)]
 
     for _ in range(iters):
         inner = p[1:-1]
@@ -463,7 +463,11 @@ class WaypointHint:
         self._key: list[Any] = [None] * num
         self._world: list[Any] = [None] * num
         self._goal = np.zeros((num, 2))
-        self._grid: dict[int, OccupancyGrid] = {}
+        self._latest: tuple[Any, OccupancyGrid] | None = None
+        # robots that turn in place: each row's path padded into one array (the batched
+        # search of :meth:`points`) and its length
+        self._P = np.zeros((num, 64, 2))
+        self._len = np.zeros(num, dtype=np.int64)
         #: cars: each row's tracker (the planning baseline's); robots that turn in place: None
         self.cars: list[CarTracker] | None = None
         if car is not None:
@@ -473,12 +477,14 @@ class WaypointHint:
                 tracker.lookahead = self.ahead
 
     def _grid_of(self, world: Any) -> OccupancyGrid:
-        key = 0 if hasattr(self.arena, "bounds") else id(world)  # a map: one geometry
-        if key not in self._grid:
-            if key:
-                self._grid.clear()  # random layouts: keep the latest ones only
-            self._grid[key] = grid_from_world(world, self.arena, self.radius, self.res)
-        return self._grid[key]
+        """The grid of ``world``'s layout: a map has one; of random layouts the latest is kept,
+        held with its layout (so that a new layout cannot take its identity)."""
+        if hasattr(self.arena, "bounds"):  # a map: one geometry
+            if self._latest is None:
+                self._latest = (None, grid_from_world(world, self.arena, self.radius, self.res))
+        elif self._latest is None or self._latest[0] is not world:
+            self._latest = (world, grid_from_world(world, self.arena, self.radius, self.res))
+        return self._latest[1]
 
     def _car_plan(self, i: int, pose: np.ndarray) -> ReedsSheppPath:
         assert self.cars is not None
@@ -499,31 +505,56 @@ class WaypointHint:
         car.command(state, self.dt)
         return car.frame
 
-    def waypoint(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray,
-                 new_episode: bool) -> tuple[float, float]:
-        """Row ``i``'s hint ``(x, y)`` (m, world frame) at ``pose`` (a car's: its frame's
-        ``ahead`` point, :meth:`frame`)."""
-        if self.cars is not None:
-            return self.frame(i, world, pose, goal, new_episode).ahead
-        key = (id(world), float(goal[0]), float(goal[1]))
-        path = self.paths[i]
-        if new_episode or key != self._key[i] or path is None:
-            path = self._plan(i, world, pose, goal, key)
-        j0 = int(self.idx[i])
-        win = path[j0:j0 + 40]
-        d2 = np.sum((win - pose[:2]) ** 2, axis=1)
-        j = j0 + int(np.argmin(d2))
-        if d2[j - j0] > self.stray ** 2:
-            path = self._plan(i, world, pose, goal, key)
-            j = 0
-        self.idx[i] = j
-        k = min(len(path) - 1, j + int(round(self.ahead / self.STEP)))
-        return float(path[k, 0]), float(path[k, 1])
+    def points(self, rows: np.ndarray, worlds: list[Any], pose: np.ndarray, goal: np.ndarray,
+               new_episode: np.ndarray) -> np.ndarray:
+        """The hints ``(k, 2)`` (m, world frame) of ``rows`` (robots that turn in place), at
+        their ``pose (k, 3)``, in their layouts ``worlds`` with goals ``goal (k, >= 2)``;
+        ``new_episode (k,)`` bool. A row is planned when its episode starts, its layout or goal
+        changes or it has no path yet, then its nearest path point is searched among the
+        :attr:`WINDOW` from its last one (all rows at once), and a row farther than ``stray``
+        from it is planned again from where it stands; the hint is the path point ``ahead``
+        m on."""
+        rows = np.asarray(rows, dtype=np.int64)
+        goal = np.asarray(goal, dtype=np.float64)[:, :2]
+        for n in np.flatnonzero(self._needs_plan(rows, worlds, goal, new_episode)).tolist():
+            self._plan(int(rows[n]), worlds[n], pose[n], goal[n])
+        j0 = self.idx[rows]
+        length = self._len[rows]
+        off = j0[:, None] + np.arange(self.WINDOW)
+        win = self._P[rows[:, None], np.minimum(off, (length - 1)[:, None])]
+        d2 = np.sum((win - pose[:, None, :2]) ** 2, axis=2)
+        d2[off >= length[:, None]] = np.inf  # past a path's end
+        near = np.argmin(d2, axis=1)
+        j = j0 + near
+        for n in np.flatnonzero(d2[np.arange(len(rows)), near] > self.stray ** 2).tolist():
+            self._plan(int(rows[n]), worlds[n], pose[n], goal[n])  # strayed: from here
+            j[n] = 0
+        self.idx[rows] = j
+        k = np.minimum(self._len[rows] - 1, j + int(round(self.ahead / self.STEP)))
+        return self._P[rows, k]
 
-    def _plan(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray, key: Any
-              ) -> np.ndarray:
+    #: path points searched for the nearest one, from the last nearest on
+    WINDOW = 40
+
+    def _needs_plan(self, rows: np.ndarray, worlds: list[Any], goal: np.ndarray,
+                    new_episode: np.ndarray) -> np.ndarray:
+        need = np.asarray(new_episode, dtype=bool).copy()
+        need |= np.any(goal != self._goal[rows], axis=1)
+        for n, (i, world) in enumerate(zip(rows.tolist(), worlds, strict=True)):
+            if not need[n] and (self.paths[i] is None or self._world[i] is not world):
+                need[n] = True
+        return need
+
+    def _plan(self, i: int, world: Any, pose: np.ndarray, goal: np.ndarray) -> np.ndarray:
         path = plan_path(self._grid_of(world), pose[:2], goal[:2])
         if path is None:
             path = np.asarray(goal[:2], dtype=np.float64)[None].copy()
-        self.paths[i], self.idx[i], self._key[i] = path, 0, key
+        self.paths[i], self.idx[i], self._world[i] = path, 0, world
+        self._goal[i] = goal[:2]
+        if len(path) > self._P.shape[1]:  # room for the longest path so far
+            grown = np.zeros((len(self._P), max(len(path), 2 * self._P.shape[1]), 2))
+            grown[:, :self._P.shape[1]] = self._P
+            self._P = grown
+        self._P[i, :len(path)] = path
+        self._len[i] = len(path)
         return path

@@ -712,21 +712,22 @@ class NavigateTask(GoalTask):
         out[:, 1] = np.where(d > 0.0, bx / safe, 1.0)
         out[:, 2] = np.where(d > 0.0, by / safe, 0.0)
         if self.hint is not None:
-            car = self.hint.cars is not None
-            for n, i in enumerate(rows.tolist()):
-                if car:  # the tracker reads the whole model state (Ackermann: its steering)
+            if self.hint.cars is not None:
+                way = np.empty((len(rows), 2))
+                for n, i in enumerate(rows.tolist()):
+                    # the tracker reads the whole model state (Ackermann: its steering)
                     f = self.hint.frame(i, self.worlds[i], c.X[i], self.goal[i],
                                         c.steps[i] == 0)
-                    wx, wy = f.ahead
+                    way[n] = f.ahead
                     out[n, 5] = np.clip(f.offset, -POS_CLIP, POS_CLIP)
                     out[n, 6:9] = f.heading, f.curvature, f.direction
                     out[n, 9] = min(f.remaining, POS_CLIP)
-                else:
-                    wx, wy = self.hint.waypoint(i, self.worlds[i], pose[n], self.goal[i],
-                                                c.steps[i] == 0)
-                ex, ey = wx - pose[n, 0], wy - pose[n, 1]
-                out[n, 3] = np.clip(cy[n] * ex + sy[n] * ey, -POS_CLIP, POS_CLIP)
-                out[n, 4] = np.clip(-sy[n] * ex + cy[n] * ey, -POS_CLIP, POS_CLIP)
+            else:
+                way = self.hint.points(rows, [self.worlds[i] for i in rows.tolist()], pose,
+                                       self.goal[rows], c.steps[rows] == 0)
+            ex, ey = way[:, 0] - pose[:, 0], way[:, 1] - pose[:, 1]
+            out[:, 3] = np.clip(cy * ex + sy * ey, -POS_CLIP, POS_CLIP)
+            out[:, 4] = np.clip(-sy * ex + cy * ey, -POS_CLIP, POS_CLIP)
         end = self._obs_end  # the task's last entries (core.obs may hold more after them)
         c.obs[rows, end - out.shape[1]:end] = out
 
