@@ -8,6 +8,7 @@ the same run; ``--motor-only``: that table alone), the cost of map-based ``navig
 shipped map vs the random arena, timed alternately; ``--maps-only``: that table alone), plus
 ``gym.make`` time once the compiled caches exist. ``--breakdown``: only where a single env's
 step goes (the compiled physics, the core, the wrappers and info), against Pendulum-v1.
+``--hint-only``: only the cost of navigate -v1's waypoint hint (single and 32-row vector env).
 ``--substeps``: only the speed/accuracy table of the dynamic robots' ``sim_dt`` (each robot's
 default and coarser divisors of ``ctrl_dt``): RK4's error against an 8x finer step and the single
 env's step against Pendulum-v1, both action modes.
@@ -138,6 +139,40 @@ def bench_maps(robots: list[str], steps: int, repeats: int) -> None:
         rand.close()
 
 
+def bench_hint(robots: list[str], steps: int, repeats: int) -> None:
+    """navigate -v1 on the random arena, the robot's first action mode: us/step of a single
+    env with the waypoint hint (a planned path per episode, the nearest path point each step)
+    and without it (timed alternately, the same actions), and of a 32-row vector env's step
+    per row, with and without."""
+    print("| id | single env, hint us/step | no hint us/step | hint / no hint | "
+          "vector env (32 rows), hint us/row-step | no hint us/row-step |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for robot in robots:
+        eid = env_id(robot, 1)
+        hint = gym.make(eid, task="navigate", waypoint_hint=True)
+        plain = gym.make(eid, task="navigate")
+        t_hint, t_plain = time_steps(hint, steps, repeats, ref=plain)
+        rows = []
+        for kw in (dict(waypoint_hint=True), {}):
+            vec = gym.make_vec(eid, num_envs=32, vectorization_mode="vector_entry_point",
+                               task="navigate", **kw)
+            vec.reset(seed=0)
+            acts = np.random.default_rng(0).uniform(
+                -1, 1, (max(1, steps // 8),) + vec.action_space.shape).astype(np.float32)
+            runs = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                for a in acts:
+                    vec.step(a)
+                runs.append((time.perf_counter() - t0) / (len(acts) * 32))
+            rows.append(statistics.median(runs))
+            vec.close()
+        print(f"| {eid} | {t_hint * 1e6:.1f} | {t_plain * 1e6:.1f} | {t_hint / t_plain:.2f}x | "
+              f"{rows[0] * 1e6:.1f} | {rows[1] * 1e6:.1f} |")
+        hint.close()
+        plain.close()
+
+
 def bench_breakdown(robots: list[str], steps: int, repeats: int) -> None:
     """Where a single env's step goes (goal task, every action mode): ``env.step`` through
     ``gym.make``, the core's step (physics, controller, task kernel) on its own action buffer
@@ -229,7 +264,12 @@ def main() -> None:
                     help="only the table of where a single env's step goes")
     ap.add_argument("--substeps", action="store_true",
                     help="only the speed/accuracy table of sim_dt for the dynamic robots")
+    ap.add_argument("--hint-only", action="store_true",
+                    help="only the navigate -v1 waypoint hint's cost table")
     args = ap.parse_args()
+    if args.hint_only:
+        bench_hint(args.robots or available_robots(), args.steps, args.repeats)
+        return
     if args.substeps:
         bench_substeps(args.robots or available_robots(), args.steps, args.repeats)
         return

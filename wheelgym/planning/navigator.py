@@ -47,6 +47,7 @@ import time
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from wheelgym.kinematics.car_tracking import CarTracker, TrackFrame
 from wheelgym.kinematics.reeds_shepp import ReedsSheppPath, path_from_segments
@@ -424,6 +425,27 @@ class PlanningNavigator:
 
 
 
+@njit(cache=True)
+def _k_nearest(P, length, idx, rows, xy, window, stray2, strayed):  # pragma: no cover
+    """:meth:`WaypointHint.points`' search: for each of ``rows``, the path point of ``P[i]``
+    (its first ``length[i]``) nearest to ``xy[n]`` among the ``window`` from ``idx[i]`` on
+    (the first of equals) becomes ``idx[i]``; ``strayed[n]``: its squared distance exceeds
+    ``stray2``."""
+    for n in range(rows.shape[0]):
+        i = rows[n]
+        best = np.inf
+        near = idx[i]
+        for j in range(idx[i], min(idx[i] + window, length[i])):
+            dx = P[i, j, 0] - xy[n, 0]
+            dy = P[i, j, 1] - xy[n, 1]
+            d2 = dx * dx + dy * dy
+            if d2 < best:
+                best = d2
+                near = j
+        idx[i] = near
+        strayed[n] = best > stray2
+
+
 class WaypointHint:
     """The navigate -v1 observation's opt-in hint: where the planning baseline's plan goes.
 
@@ -516,21 +538,17 @@ class WaypointHint:
         m on."""
         rows = np.asarray(rows, dtype=np.int64)
         goal = np.asarray(goal, dtype=np.float64)[:, :2]
-        for n in np.flatnonzero(self._needs_plan(rows, worlds, goal, new_episode)).tolist():
-            self._plan(int(rows[n]), worlds[n], pose[n], goal[n])
-        j0 = self.idx[rows]
-        length = self._len[rows]
-        off = j0[:, None] + np.arange(self.WINDOW)
-        win = self._P[rows[:, None], np.minimum(off, (length - 1)[:, None])]
-        d2 = np.sum((win - pose[:, None, :2]) ** 2, axis=2)
-        d2[off >= length[:, None]] = np.inf  # past a path's end
-        near = np.argmin(d2, axis=1)
-        j = j0 + near
-        for n in np.flatnonzero(d2[np.arange(len(rows)), near] > self.stray ** 2).tolist():
-            self._plan(int(rows[n]), worlds[n], pose[n], goal[n])  # strayed: from here
-            j[n] = 0
-        self.idx[rows] = j
-        k = np.minimum(self._len[rows] - 1, j + int(round(self.ahead / self.STEP)))
+        need = self._needs_plan(rows, worlds, goal, new_episode)
+        if need.any():
+            for n in np.flatnonzero(need).tolist():
+                self._plan(int(rows[n]), worlds[n], pose[n], goal[n])
+        strayed = np.empty(len(rows), dtype=np.bool_)
+        _k_nearest(self._P, self._len, self.idx, rows, np.ascontiguousarray(pose[:, :2]),
+                   self.WINDOW, self.stray ** 2, strayed)
+        if strayed.any():
+            for n in np.flatnonzero(strayed).tolist():
+                self._plan(int(rows[n]), worlds[n], pose[n], goal[n])  # from where it stands
+        k = np.minimum(self._len[rows] - 1, self.idx[rows] + int(round(self.ahead / self.STEP)))
         return self._P[rows, k]
 
     #: path points searched for the nearest one, from the last nearest on
@@ -538,10 +556,10 @@ class WaypointHint:
 
     def _needs_plan(self, rows: np.ndarray, worlds: list[Any], goal: np.ndarray,
                     new_episode: np.ndarray) -> np.ndarray:
-        need = np.asarray(new_episode, dtype=bool).copy()
-        need |= np.any(goal != self._goal[rows], axis=1)
+        need = (goal != self._goal[rows]).any(axis=1)
+        need |= new_episode
         for n, (i, world) in enumerate(zip(rows.tolist(), worlds, strict=True)):
-            if not need[n] and (self.paths[i] is None or self._world[i] is not world):
+            if self._world[i] is not world or self.paths[i] is None:
                 need[n] = True
         return need
 
