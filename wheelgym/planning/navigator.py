@@ -480,14 +480,13 @@ class WaypointHint:
                  dt: float = 0.05) -> None:
         self.arena, self.radius, self.res = arena, float(radius), float(res)
         self.ahead, self.stray, self.dt = float(ahead), float(stray), float(dt)
-        self.paths: list[np.ndarray | None] = [None] * num
         self.idx = np.zeros(num, dtype=np.int64)
         self._key: list[Any] = [None] * num
         self._world: list[Any] = [None] * num
         self._goal = np.zeros((num, 2))
         self._latest: tuple[Any, OccupancyGrid] | None = None
         # robots that turn in place: each row's path padded into one array (the batched
-        # search of :meth:`points`) and its length
+        # search of :meth:`points`) and its length (0: not planned yet)
         self._P = np.zeros((num, 64, 2))
         self._len = np.zeros(num, dtype=np.int64)
         #: cars: each row's tracker (the planning baseline's); robots that turn in place: None
@@ -559,7 +558,7 @@ class WaypointHint:
         need = (goal != self._goal[rows]).any(axis=1)
         need |= new_episode
         for n, (i, world) in enumerate(zip(rows.tolist(), worlds, strict=True)):
-            if self._world[i] is not world or self.paths[i] is None:
+            if self._world[i] is not world or self._len[i] == 0:
                 need[n] = True
         return need
 
@@ -567,7 +566,7 @@ class WaypointHint:
         path = plan_path(self._grid_of(world), pose[:2], goal[:2])
         if path is None:
             path = np.asarray(goal[:2], dtype=np.float64)[None].copy()
-        self.paths[i], self.idx[i], self._world[i] = path, 0, world
+        self.idx[i], self._world[i] = 0, world
         self._goal[i] = goal[:2]
         if len(path) > self._P.shape[1]:  # room for the longest path so far
             grown = np.zeros((len(self._P), max(len(path), 2 * self._P.shape[1]), 2))
