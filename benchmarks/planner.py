@@ -2,6 +2,7 @@
 
     python benchmarks/planner.py                       # 7 robots x 4 arenas, 3 seeds x 50
     python benchmarks/planner.py --robots ThreeWheel --arenas maze --seeds 1 --episodes 10
+    python benchmarks/planner.py --robots ThreeWheel SkidSteer CasterAGV --action-mode velocity
 
 For each robot and arena (``random``: a new random arena each episode; ``warehouse``,
 ``office``, ``maze``: the shipped maps) and each seed ``s``, a native vector env of
@@ -11,7 +12,8 @@ policies see the same episodes: ``wheelgym.baseline(env)`` (reactive: the potent
 16 rays) and ``wheelgym.baseline(env, planner="auto")`` (grid A* for the robots that turn in
 place, hybrid A* for the cars; docs/topics/planning.md). Success is the mean over the seeds of
 each seed's success rate, with the standard deviation over the seeds; the planner's columns add
-its planning time per plan (mean and max, ms, wall clock on this machine, first compile
+its share of steps with ``info["saturated"]`` (a command at its bound or a clipped torque), its
+planning time per plan (mean and max, ms, wall clock on this machine, first compile
 excluded by a warm-up plan) and its plans per scored episode (1 + re-plans).
 
 Prints a Markdown table; ``--out FILE`` also writes it. ``--cost``: instead, the planning cost
@@ -38,10 +40,12 @@ TARGET = {"Bicycle": 0.85, "Ackermann": 0.85}
 TARGET_OTHERS = 0.95
 
 
-def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | None
-              ) -> dict[str, float]:
+def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | None,
+              action_mode: str | None = None) -> dict[str, float]:
     """One seed: the first episode of each of ``episodes`` sub-envs."""
     kw = {"task": "navigate"}
+    if action_mode is not None:
+        kw["action_mode"] = action_mode
     if arena != "random":
         kw["arena"] = arena
     env = gym.make_vec(env_id(robot), num_envs=episodes, vectorization_mode="vector_entry_point",
@@ -53,10 +57,13 @@ def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | N
     plans = np.zeros(n)
     win = np.zeros(n, dtype=bool)
     hit = np.zeros(n, dtype=bool)
+    sat = steps = 0
     core = pol.core
     t0 = time.perf_counter()
     for _ in range(500):
         obs, _, term, trunc, info = env.step(pol.predict(obs)[0])
+        sat += int(np.count_nonzero(np.asarray(info["saturated"], dtype=bool) & ~done))
+        steps += int(np.count_nonzero(~done))
         end = (term | trunc) & ~done
         if pol.navigator is not None:
             plans[end] = pol.navigator.row_plans[end]
@@ -66,7 +73,8 @@ def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | N
         if done.all():
             break
     out = {"success": float(win.mean()), "collision": float(hit.mean()),
-           "timeout": float((done & ~win & ~hit).mean()), "wall_s": time.perf_counter() - t0}
+           "timeout": float((done & ~win & ~hit).mean()), "saturation": sat / max(steps, 1),
+           "wall_s": time.perf_counter() - t0}
     if pol.navigator is not None:
         st = pol.navigator.stats()
         out.update(plan_ms=st["plan_ms_mean"], plan_ms_max=st["plan_ms_max"],
@@ -76,9 +84,10 @@ def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | N
     return out
 
 
-def warm_up(robot: str) -> None:
+def warm_up(robot: str, action_mode: str | None = None) -> None:
     """Compile the planner's kernels (one short episode), so no plan time includes it."""
-    env = gym.make(env_id(robot), task="navigate")
+    kw = {} if action_mode is None else {"action_mode": action_mode}
+    env = gym.make(env_id(robot), task="navigate", **kw)
     pol = wheelgym.baseline(env, planner="auto")
     obs, _ = env.reset(seed=0)
     for _ in range(3):
@@ -122,6 +131,9 @@ def main() -> None:
     ap.add_argument("--arenas", nargs="+", default=list(ARENAS), choices=ARENAS)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--episodes", type=int, default=50)
+    ap.add_argument("--action-mode", default=None,
+                    help="the robots' action mode (default: each robot's first, torque for "
+                         "the dynamic robots)")
     ap.add_argument("--no-reactive", action="store_true", help="the planner's columns only")
     ap.add_argument("--out", default=None)
     ap.add_argument("--cost", action="store_true",
@@ -135,20 +147,23 @@ def main() -> None:
                 print(cost(robot, arena), flush=True)
         return
     lines = ["| robot | arena | planner success | reactive success | planner collisions / "
-             "timeouts | plan ms (mean / max) | plans per episode | target |",
-             "|---|---|---|---|---|---|---|---|"]
+             "timeouts | planner saturation | plan ms (mean / max) | plans per episode | "
+             "target |",
+             "|---|---|---|---|---|---|---|---|---|"]
     print("\n".join(lines), flush=True)
     t_all = time.perf_counter()
     for robot in a.robots:
-        warm_up(robot)
+        warm_up(robot, a.action_mode)
         for arena in a.arenas:
-            P = [run_batch(robot, arena, s, a.episodes, "auto") for s in range(a.seeds)]
+            P = [run_batch(robot, arena, s, a.episodes, "auto", a.action_mode)
+                 for s in range(a.seeds)]
             ps = np.array([p["success"] for p in P])
             times = np.concatenate([p["plan_times"] for p in P]) * 1e3
             if a.no_reactive:
                 rtxt = "-"
             else:
-                R = [run_batch(robot, arena, s, a.episodes, None) for s in range(a.seeds)]
+                R = [run_batch(robot, arena, s, a.episodes, None, a.action_mode)
+                     for s in range(a.seeds)]
                 rs = np.array([r["success"] for r in R])
                 rtxt = f"{rs.mean():.1%} +- {rs.std():.1%}"
             target = TARGET.get(robot, TARGET_OTHERS)
@@ -156,6 +171,7 @@ def main() -> None:
             line = (f"| {robot} | {arena} | {ps.mean():.1%} +- {ps.std():.1%} | {rtxt} | "
                     f"{np.mean([p['collision'] for p in P]):.1%} / "
                     f"{np.mean([p['timeout'] for p in P]):.1%} | "
+                    f"{np.mean([p['saturation'] for p in P]):.1%} | "
                     f"{times.mean():.1f} / {times.max():.0f} | "
                     f"{np.mean([p['plans_per_episode'] for p in P]):.2f} | "
                     f">= {target:.0%} ({met}) |")

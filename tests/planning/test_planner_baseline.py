@@ -34,6 +34,32 @@ def test_planner_reaches_the_goals(robot, arena):
     assert st["plans"] >= 3 and st["failures"] == 0 and st["plan_ms_mean"] > 0
 
 
+@pytest.mark.parametrize("robot", ["ThreeWheel", "SkidSteer"])
+def test_velocity_mode_commands_stay_inside_the_twist_range(robot):
+    """Cruise 1.5 m/s against a 1 m/s command range would clip on most steps (and bend a
+    holonomic robot's direction): in the velocity mode the twist is scaled into TWIST_MARGIN
+    of ``twist_max``, so no command reaches its bound."""
+    from wheelgym.planning.navigator import TWIST_MARGIN
+
+    env = gym.make(env_id(robot), task="navigate", action_mode="velocity", arena="office")
+    pol = wheelgym.baseline(env, planner="auto")
+    obs, _ = env.reset(seed=1)
+    peak, clipped = 0.0, 0
+    for _ in range(500):
+        a = pol.predict(obs)[0]
+        peak = max(peak, float(np.max(np.abs(a))))
+        obs, _, term, trunc, info = env.step(a)
+        clipped += bool(env.unwrapped.core._clipped[0])
+        if term or trunc:
+            break
+    assert info["is_success"]
+    assert 0.9 * TWIST_MARGIN < peak <= TWIST_MARGIN + 1e-6  # cruising inside (float32 actions)
+    assert clipped == 0
+    # the torque mode's twist is no command with a range: no cap
+    tq = wheelgym.baseline(gym.make(env_id(robot), task="navigate"), planner="auto")
+    assert tq.navigator.twist_cap is None
+
+
 def test_vector_env_rows_plan_independently():
     env = gym.make_vec(env_id("Unicycle"), num_envs=3, task="navigate",
                        vectorization_mode="vector_entry_point")

@@ -29,7 +29,9 @@ policy, which turns its commands into actions. Per row:
    within 0.5 m of the path's end, where the gap is below 0.15 m (times ``gap / 0.15``,
    at least 0.3) and, where the gap is below 0.25 m, into bends (times ``cos(bend / 2)``, at
    least 0.4, ``bend`` the path's turn over the next metre). Cars: ``CarTracker`` (rear-wheel
-   feedback forwards and backwards, stopping on each cusp) along the plan.
+   feedback forwards and backwards, stopping on each cusp) along the plan. In the velocity
+   action mode the twist is scaled into ``TWIST_MARGIN`` of the command's range (a command at
+   its bound clips, and counts as saturated; the scaling keeps a holonomic robot's direction).
 4. **Re-plan** when the robot strays more than ``stray`` m from the path, or makes no progress
    along it for ``stuck_steps`` control steps (cars: ``CarTracker``'s own replans, which call
    the planner again from where the car is).
@@ -70,6 +72,10 @@ PLANNERS = ("auto", "astar", "hybrid")
 
 #: the cars' cruise speed (m/s) in the planning baseline (cut to the car's speed range)
 CAR_SPEED = 1.5
+
+#: velocity mode: the share of the twist command's range (``twist_max``) the commands keep to,
+#: so that cruising is not a command at its bound (which clips, and counts as saturated)
+TWIST_MARGIN = 0.97
 
 
 def car_tracker(model: Any, planner: Any, car_speed: float = CAR_SPEED) -> CarTracker:
@@ -201,7 +207,8 @@ class PlanningNavigator:
         planner: one of :data:`PLANNERS`.
         v_cap: cruise speed (m/s) of the turn-in-place robots (cut to the robot's
             ``speed_range``); ``w_cap`` their yaw-rate cap (rad/s); ``car_speed`` the cars'
-            cruise speed (m/s).
+            cruise speed (m/s). In the velocity action mode the twist is then kept within
+            :data:`TWIST_MARGIN` of the twist command's range (``twist_max``).
         lookahead: carrot distance (m); ``stray``: off-path distance (m) that re-plans;
             ``stuck_steps``: control steps without progress along the path that re-plan.
         res: grid cell (m).
@@ -233,6 +240,13 @@ class PlanningNavigator:
         hi = getattr(core.base_params, "speed_range", (math.inf, math.inf))[1]
         self.v_cap = min(float(v_cap), float(hi))
         self.w_cap, self.car_speed = float(w_cap), float(car_speed)
+        #: velocity mode: the body twist's largest commands (vx, vy, wz), TWIST_MARGIN of
+        #: the twist command's range; None in the other modes
+        self.twist_cap: np.ndarray | None = None
+        if spec.tracks_twist(core.action_mode):
+            tmax = spec.twist_max
+            vy = tmax[1] if len(tmax) == 3 else math.inf
+            self.twist_cap = TWIST_MARGIN * np.array([tmax[0], vy, tmax[-1]], dtype=float)
         self.lookahead, self.stray, self.stuck_steps = float(lookahead), float(stray), \
             int(stuck_steps)
         self.res = float(res)
@@ -392,6 +406,11 @@ class PlanningNavigator:
                 turn = 0.6 if here > 0.15 else 0.25
                 cmd[i, 0] = 0.0 if abs(alpha) > turn else v * math.cos(alpha) ** 2
                 cmd[i, 2] = min(max(3.0 * alpha, -self.w_cap), self.w_cap)
+        if self.twist_cap is not None:  # the velocity: scaled into range (its direction kept)
+            cap = self.twist_cap
+            over = np.maximum(np.abs(cmd[:, 0]) / cap[0], np.abs(cmd[:, 1]) / cap[1])
+            cmd[:, :2] /= np.maximum(over, 1.0)[:, None]
+            np.clip(cmd[:, 2], -cap[2], cap[2], out=cmd[:, 2])
         return cmd
 
     def car_inputs(self) -> np.ndarray:
