@@ -207,8 +207,9 @@ class PlanningNavigator:
         planner: one of :data:`PLANNERS`.
         v_cap: cruise speed (m/s) of the turn-in-place robots (cut to the robot's
             ``speed_range``); ``w_cap`` their yaw-rate cap (rad/s); ``car_speed`` the cars'
-            cruise speed (m/s). In the velocity action mode the twist is then kept within
-            :data:`TWIST_MARGIN` of the twist command's range (``twist_max``).
+            cruise speed (m/s). In the velocity action mode the velocity is then scaled into
+            :data:`TWIST_MARGIN` of the twist command's range (``twist_max``) and ``w_cap``
+            cut to that share of its yaw-rate range.
         lookahead: carrot distance (m); ``stray``: off-path distance (m) that re-plans;
             ``stuck_steps``: control steps without progress along the path that re-plan.
         res: grid cell (m).
@@ -240,13 +241,14 @@ class PlanningNavigator:
         hi = getattr(core.base_params, "speed_range", (math.inf, math.inf))[1]
         self.v_cap = min(float(v_cap), float(hi))
         self.w_cap, self.car_speed = float(w_cap), float(car_speed)
-        #: velocity mode: the body twist's largest commands (vx, vy, wz), TWIST_MARGIN of
-        #: the twist command's range; None in the other modes
+        #: velocity mode: the body velocity's largest commands (vx, vy), TWIST_MARGIN of the
+        #: twist command's range (the yaw rate's is ``w_cap``); None in the other modes
         self.twist_cap: np.ndarray | None = None
         if spec.tracks_twist(core.action_mode):
             tmax = spec.twist_max
             vy = tmax[1] if len(tmax) == 3 else math.inf
-            self.twist_cap = TWIST_MARGIN * np.array([tmax[0], vy, tmax[-1]], dtype=float)
+            self.twist_cap = TWIST_MARGIN * np.array([tmax[0], vy], dtype=float)
+            self.w_cap = min(self.w_cap, TWIST_MARGIN * float(tmax[-1]))
         self.lookahead, self.stray, self.stuck_steps = float(lookahead), float(stray), \
             int(stuck_steps)
         self.res = float(res)
@@ -407,10 +409,8 @@ class PlanningNavigator:
                 cmd[i, 0] = 0.0 if abs(alpha) > turn else v * math.cos(alpha) ** 2
                 cmd[i, 2] = min(max(3.0 * alpha, -self.w_cap), self.w_cap)
         if self.twist_cap is not None:  # the velocity: scaled into range (its direction kept)
-            cap = self.twist_cap
-            over = np.maximum(np.abs(cmd[:, 0]) / cap[0], np.abs(cmd[:, 1]) / cap[1])
+            over = np.max(np.abs(cmd[:, :2]) / self.twist_cap, axis=1)
             cmd[:, :2] /= np.maximum(over, 1.0)[:, None]
-            np.clip(cmd[:, 2], -cap[2], cap[2], out=cmd[:, 2])
         return cmd
 
     def car_inputs(self) -> np.ndarray:
