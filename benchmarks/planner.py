@@ -40,16 +40,22 @@ TARGET = {"Bicycle": 0.85, "Ackermann": 0.85}
 TARGET_OTHERS = 0.95
 
 
+def env_kwargs(arena: str = "random", action_mode: str | None = None) -> dict[str, str]:
+    """The navigate env's kwargs: the arena (a map, or none for the random arenas) and the
+    action mode (none: the robot's first)."""
+    kw = {"task": "navigate"}
+    if arena != "random":
+        kw["arena"] = arena
+    if action_mode is not None:
+        kw["action_mode"] = action_mode
+    return kw
+
+
 def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | None,
               action_mode: str | None = None) -> dict[str, float]:
     """One seed: the first episode of each of ``episodes`` sub-envs."""
-    kw = {"task": "navigate"}
-    if action_mode is not None:
-        kw["action_mode"] = action_mode
-    if arena != "random":
-        kw["arena"] = arena
     env = gym.make_vec(env_id(robot), num_envs=episodes, vectorization_mode="vector_entry_point",
-                       **kw)
+                       **env_kwargs(arena, action_mode))
     pol = wheelgym.baseline(env, planner=planner)
     obs, _ = env.reset(seed=1000 * seed)
     n = episodes
@@ -86,18 +92,17 @@ def run_batch(robot: str, arena: str, seed: int, episodes: int, planner: str | N
 
 def warm_up(robot: str, action_mode: str | None = None) -> None:
     """Compile the planner's kernels (one short episode), so no plan time includes it."""
-    kw = {} if action_mode is None else {"action_mode": action_mode}
-    env = gym.make(env_id(robot), task="navigate", **kw)
+    env = gym.make(env_id(robot), **env_kwargs(action_mode=action_mode))
     pol = wheelgym.baseline(env, planner="auto")
     obs, _ = env.reset(seed=0)
     for _ in range(3):
         obs = env.step(pol.predict(obs)[0])[0]
 
 
-def cost(robot: str, arena: str) -> str:
+def cost(robot: str, arena: str, action_mode: str | None = None) -> str:
     """Planning cost against the env's step, one process (single env, seeds 1-10, up to 100
     steps each): us per ``env.step`` and per ``predict`` of both baselines, ms per plan."""
-    env = gym.make(env_id(robot), task="navigate", arena=None if arena == "random" else arena)
+    env = gym.make(env_id(robot), **env_kwargs(arena, action_mode))
     pol = wheelgym.baseline(env, planner="auto")
     react = wheelgym.baseline(env)
     obs, _ = env.reset(seed=0)
@@ -144,7 +149,7 @@ def main() -> None:
               "|---|---|---|---|---|---|")
         for robot in a.robots:
             for arena in a.arenas:
-                print(cost(robot, arena), flush=True)
+                print(cost(robot, arena, a.action_mode), flush=True)
         return
     lines = ["| robot | arena | planner success | reactive success | planner collisions / "
              "timeouts | planner saturation | plan ms (mean / max) | plans per episode | "
