@@ -192,3 +192,75 @@ def test_baseline_takes_the_dict_observation():
         action, _ = policy.predict(obs)
         assert action.shape == env.action_space.shape
         obs, *_ = env.step(action)
+
+
+# ---------------------------------------------------------------- goal_free_observation
+@pytest.mark.parametrize("robot,task,mode", CASES)
+def test_goal_free_observation_drops_the_goal_entries(robot, task, mode):
+    """The kept columns are the plain observation's minus the task's goal entries (the history's
+    copies too), in order, and their bounds come with them."""
+    kw = {"obs_history": 1}
+    free = make(robot, task, mode, goal_free_observation=True, **kw)
+    full = make(robot, task, mode, **kw)
+    names = full.unwrapped.core.obs_names
+    goal = set(full.unwrapped.core.task.goal_entries)
+    keep = [i for i, n in enumerate(names) if n.removeprefix("prev_obs_1_") not in goal]
+    assert 0 < len(keep) < len(names) - len(goal)  # the history's goal entries left out too
+    box, ref = free.observation_space["observation"], full.observation_space["observation"]
+    np.testing.assert_array_equal(box.low, ref.low[keep])
+    np.testing.assert_array_equal(box.high, ref.high[keep])
+    check_env(free.unwrapped, skip_render_check=True)
+    rng = np.random.default_rng(3)
+    o1, _ = free.reset(seed=3)
+    o2, _ = full.reset(seed=3)
+    for _ in range(20):
+        np.testing.assert_array_equal(o1["observation"], o2["observation"][keep])
+        np.testing.assert_array_equal(o1["desired_goal"], o2["desired_goal"])
+        a = rng.uniform(-1.0, 1.0, free.action_space.shape)
+        o1, *_ = free.step(a)
+        o2, *_ = full.step(a)
+
+
+def test_goal_free_observation_does_not_see_the_goal():
+    """Two goals from the same start: the 'observation' key is the same bits under the same
+    actions (HER's relabelled goal reaches the policy only as desired_goal), while the plain
+    observation differs."""
+    start = (0.0, 0.0, 0.0)
+    for free, differs in ((True, False), (False, True)):
+        kw = {"goal_free_observation": True} if free else {}
+        a_env, b_env = (make("ThreeWheel", "goal", "velocity", **kw) for _ in range(2))
+        oa, _ = a_env.reset(seed=0, options={"start": start, "goal": (2.0, 1.0, 0.5)})
+        ob, _ = b_env.reset(seed=0, options={"start": start, "goal": (-1.0, 2.0, -1.0)})
+        assert not np.array_equal(oa["desired_goal"], ob["desired_goal"])
+        for t in range(10):
+            assert (not np.array_equal(oa["observation"], ob["observation"])) == differs, t
+            a = np.full(a_env.action_space.shape, 0.3)
+            oa, *_ = a_env.step(a)
+            ob, *_ = b_env.step(a)
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP],
+                         ids=["next_step", "same_step"])
+def test_goal_free_observation_vector_matches_single(mode):
+    kw = {"task": "goal", "action_mode": "velocity", "goal_conditioned": True,
+          "goal_free_observation": True, "max_episode_steps": 40}
+    eid, n = env_id("ThreeWheel"), 3
+    vec = gym.make_vec(eid, num_envs=n, vectorization_mode="vector_entry_point",
+                       autoreset_mode=mode, **kw)
+    ref = SyncVectorEnv([lambda: gym.make(eid, **kw) for _ in range(n)], autoreset_mode=mode)
+    assert vec.single_observation_space == ref.single_observation_space
+    rng = np.random.default_rng(7)
+    assert_same(vec.reset(seed=7), ref.reset(seed=7), "reset")
+    for t in range(90):
+        a = rng.uniform(-1.0, 1.0, vec.action_space.shape).astype(np.float32)
+        assert_same(vec.step(a), ref.step(a), f"step {t}")
+
+
+def test_goal_free_observation_bad_values_raise():
+    with pytest.raises(ValueError, match="goal_free_observation needs goal_conditioned"):
+        gym.make(env_id("ThreeWheel"), task="goal", goal_free_observation=True)
+    with pytest.raises(TypeError, match="goal_free_observation must be a bool"):
+        make("ThreeWheel", "goal", None, goal_free_observation=1)
+    with pytest.raises(ValueError, match="waypoint_hint"):
+        gym.make("wheelgym/ThreeWheel-v1", task="navigate", goal_conditioned=True,
+                 waypoint_hint=True, goal_free_observation=True)

@@ -229,6 +229,11 @@ class EnvConfig:
             over (docs/topics/planning.md).
         goal_conditioned: goal and navigate: a ``Dict`` observation (``observation``,
             ``achieved_goal``, ``desired_goal``) and ``compute_reward`` for HER.
+        goal_free_observation: with ``goal_conditioned``, the ``observation`` key without the
+            entries that depend on the desired goal (the goal in the body frame, navigate's
+            distance and bearing; in the observation history too), as HER needs: a relabelled
+            goal reaches the policy only through ``desired_goal``. Not with navigate's
+            ``waypoint_hint`` (the plan to the goal).
         action_delay: control steps between an action and its effect (0 to
             :data:`~wheelgym.envs.actuator.MAX_ACTION_DELAY`).
         actuator_lag: time constant (s) of the first-order lag on the applied inputs
@@ -275,6 +280,7 @@ class EnvConfig:
     arena: str | os.PathLike | None = None
     horizon: int = DEFAULT_HORIZON
     goal_conditioned: bool = False
+    goal_free_observation: bool = False
     action_delay: int = 0
     actuator_lag: float = 0.0
     motor: str | None = None
@@ -354,6 +360,13 @@ class EnvConfig:
         if self.goal_conditioned and self.task not in ("goal", "navigate"):
             raise ValueError(f"goal_conditioned applies to task='goal' or 'navigate' only, "
                              f"got task={self.task!r}")
+        if not isinstance(self.goal_free_observation, (bool, np.bool_)):
+            raise TypeError(f"goal_free_observation must be a bool, got "
+                            f"{self.goal_free_observation!r}")
+        put("goal_free_observation", bool(self.goal_free_observation))
+        if self.goal_free_observation and not self.goal_conditioned:
+            raise ValueError("goal_free_observation needs goal_conditioned=True (it shapes the "
+                             "Dict observation's 'observation' key)")
         if isinstance(self.version, bool) or self.version not in VERSIONS:
             raise ValueError(f"version must be one of {list(VERSIONS)} (the id's -vN), got "
                              f"{self.version!r}")
@@ -364,6 +377,9 @@ class EnvConfig:
         if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
             raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
                              "(version=1) only")
+        if self.waypoint_hint and self.goal_free_observation:
+            raise ValueError("goal_free_observation cannot be combined with waypoint_hint (the "
+                             "hint is the plan to the env's goal); valid: one of them")
         put("action_history", _check_history("action_history", self.action_history,
                                              MAX_ACTION_HISTORY, "past actions"))
         put("obs_history", _check_history("obs_history", self.obs_history, MAX_OBS_HISTORY,

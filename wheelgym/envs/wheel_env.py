@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -148,6 +149,8 @@ there once (the vector env takes the same).
 |                |                   | at a reset (at most 4096; it moves on by windows past)  |
 | goal_conditioned | False           | goal, navigate: ``Dict`` observation and                |
 |                |                   | ``compute_reward`` for HER ("Goal-conditioned")         |
+| goal_free_observation | False      | with goal_conditioned: ``observation`` without the      |
+|                |                   | goal's entries, as HER needs ("Goal-conditioned")       |
 | action_delay   | 0                 | control steps (0-50) before an action acts; the first k |
 |                |                   | steps of an episode apply the zero action (velocity     |
 |                |                   | mode: the twist command is delayed)                     |
@@ -258,7 +261,8 @@ Gymnasium-Robotics' convention, so SB3's ``HerReplayBuffer`` works unchanged:
 
 | key           | dtype   | entries                                                        |
 |---------------|---------|----------------------------------------------------------------|
-| observation   | float32 | the observation above (goal in the body frame included)        |
+| observation   | float32 | the observation above (goal in the body frame included; with   |
+|               |         | ``goal_free_observation=True`` without the goal's entries)     |
 | achieved_goal | float32 | goal: x, y, cos yaw, sin yaw of the robot (W; not clipped,     |
 |               |         | not noised); navigate: x, y                                    |
 | desired_goal  | float32 | the goal's, in the same form                                   |
@@ -279,6 +283,10 @@ yaw). With the observed (float32) goals it equals the step reward to their round
 functions of the goals, so SB3's ``HerReplayBuffer`` needs
 ``replay_buffer_kwargs=dict(..., copy_info_dict=True)``; without the info keys
 ``compute_reward`` raises a ``ValueError`` saying so.
+For HER pass ``goal_free_observation=True``: ``HerReplayBuffer`` relabels ``desired_goal`` and
+the reward, never ``observation``, so with the goal's entries there (the task's
+``goal_entries``, history copies included) a relabelled transition shows one goal and pays for
+another. The default keeps them; not with navigate's ``waypoint_hint``.
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
 (reward 0, see Episode End) are outside this.
@@ -320,9 +328,23 @@ def _info_builder(vectors: tuple[str, ...], numbers: tuple[tuple[str, int], ...]
     return scope["build"]
 
 
-def goal_space(core: WheelCore, obs_space: spaces.Box) -> spaces.Dict:
-    """The ``goal_conditioned`` observation space of ``core``'s task (one env)."""
+def goal_free_columns(core: WheelCore) -> np.ndarray:
+    """The observation columns that do not depend on the desired goal (``goal_free_observation``):
+    every entry but the task's ``goal_entries``, in the observation history too."""
+    drop = set(core.task.goal_entries)
+    keep = [i for i, name in enumerate(core.obs_names)
+            if re.sub(r"^prev_obs_\d+_", "", name) not in drop]
+    return np.array(keep, dtype=np.int64)
+
+
+def goal_space(core: WheelCore, obs_space: spaces.Box,
+               columns: np.ndarray | None = None) -> spaces.Dict:
+    """The ``goal_conditioned`` observation space of ``core``'s task (one env); ``columns``:
+    those of ``obs_space`` the ``observation`` key keeps (None: all)."""
     high = core.task.goal_high().astype(np.float32)
+    if columns is not None:
+        obs_space = spaces.Box(obs_space.low[columns], obs_space.high[columns],
+                               dtype=np.float32)
     return spaces.Dict({"observation": obs_space,
                         "achieved_goal": spaces.Box(-high, high, dtype=np.float32),
                         "desired_goal": spaces.Box(-high, high, dtype=np.float32)})
@@ -350,8 +372,10 @@ class WheelEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (c.action_dim,), np.float32)
         self.observation_space = spaces.Box(c.obs_low, c.obs_high, dtype=np.float32)
         self._gc = config.goal_conditioned
+        #: ``goal_free_observation``: the observation columns kept (else None: all).
+        self._columns = goal_free_columns(c) if config.goal_free_observation else None
         if self._gc:
-            self.observation_space = goal_space(c, self.observation_space)
+            self.observation_space = goal_space(c, self.observation_space, self._columns)
             # only a goal-conditioned env has them (checkers detect a GoalEnv by them)
             self.compute_reward = self._compute_reward
             self.compute_terminated = self._compute_terminated
@@ -470,6 +494,8 @@ class WheelEnv(gym.Env):
     # ------------------------------------------------------------------ goal-conditioned
     def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
         task = self.core.task
+        if self._columns is not None:
+            obs = obs[self._columns]
         return {"observation": obs, "achieved_goal": task.achieved_goal()[0].astype(np.float32),
                 "desired_goal": task.desired_goal()[0].astype(np.float32)}
 

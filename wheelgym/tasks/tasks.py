@@ -191,6 +191,9 @@ class GoalTask(Task):
     default_weights = {"progress": 1.0, "heading": 0.02, "effort": 0.01, "internal_force": 0.2,
                        "success": 10.0, "overspeed": 10.0, "collision": 10.0, "proximity": 0.0,
                        "saturation": 0.0}
+    #: Observation entries that are functions of the desired goal (left out of a
+    #: ``goal_free_observation``).
+    goal_entries: tuple[str, ...] = ("goal_x_b", "goal_y_b", "cos_dyaw", "sin_dyaw")
     #: Position (m) and heading (rad) tolerances of success.
     tol_pos: float = 0.1
     tol_yaw: float = 0.2
@@ -481,6 +484,7 @@ class NavigateTask(GoalTask):
     """
 
     name = "navigate"
+    goal_entries = (*GoalTask.goal_entries, "goal_dist", "cos_bearing", "sin_bearing")
     default_weights = {**GoalTask.default_weights, "heading": 0.0}
     tol_pos = 0.25
     tol_yaw = math.inf

@@ -65,7 +65,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
-from wheelgym.envs.wheel_env import goal_space
+from wheelgym.envs.wheel_env import goal_free_columns, goal_space
 from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
@@ -237,8 +237,11 @@ class WheelVectorEnv(VectorEnv):
         #: ``goal_conditioned``: Dict observations and ``compute_reward`` (the single env's
         #: "Goal-conditioned" section), batched.
         self.goal_conditioned = config.goal_conditioned
+        #: ``goal_free_observation``: the observation columns kept (else None: all).
+        self._columns = goal_free_columns(c) if config.goal_free_observation else None
         if self.goal_conditioned:
-            self.single_observation_space = goal_space(c, self.single_observation_space)
+            self.single_observation_space = goal_space(c, self.single_observation_space,
+                                                       self._columns)
         self._prev_ag: np.ndarray | None = None
         self.action_space = batch_space(self.single_action_space, N)
         self.observation_space = batch_space(self.single_observation_space, N)
@@ -365,6 +368,8 @@ class WheelVectorEnv(VectorEnv):
         if not self.goal_conditioned:
             return obs
         task = self.core.task
+        if self._columns is not None:
+            obs = obs[:, self._columns]
         return {"observation": obs, "achieved_goal": task.achieved_goal().astype(np.float32),
                 "desired_goal": task.desired_goal().astype(np.float32)}
 
