@@ -284,9 +284,13 @@ functions of the goals, so SB3's ``HerReplayBuffer`` needs
 ``replay_buffer_kwargs=dict(..., copy_info_dict=True)``; without the info keys
 ``compute_reward`` raises a ``ValueError`` saying so.
 For HER pass ``goal_free_observation=True``: ``HerReplayBuffer`` relabels ``desired_goal`` and
-the reward, never ``observation``, so with the goal's entries there (the task's
-``goal_entries``, history copies included) a relabelled transition shows one goal and pays for
-another. The default keeps them; not with navigate's ``waypoint_hint``.
+the reward, never ``observation``, so with the goal's entries there a relabelled transition
+shows the policy one goal and pays it for another. The option leaves out the task's
+``goal_entries`` (``goal_x_b``, ``goal_y_b``, ``cos_dyaw``, ``sin_dyaw``; navigate also
+``goal_dist``, ``cos_bearing``, ``sin_bearing``; their copies in the observation history too),
+with their bounds, so the goal reaches the policy only as ``desired_goal`` and
+``achieved_goal``, in the world frame. The default keeps them (the plain env's observation). It
+cannot be combined with navigate's ``waypoint_hint``, a plan to the env's own goal.
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
 (reward 0, see Episode End) are outside this.
