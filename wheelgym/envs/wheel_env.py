@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import os
-import re
 from collections.abc import Callable
 from typing import Any
 
@@ -334,11 +333,12 @@ def _info_builder(vectors: tuple[str, ...], numbers: tuple[tuple[str, int], ...]
 
 def goal_free_columns(core: WheelCore) -> np.ndarray:
     """The observation columns that do not depend on the desired goal (``goal_free_observation``):
-    every entry but the task's ``goal_entries``, in the observation history too."""
-    drop = set(core.task.goal_entries)
-    keep = [i for i, name in enumerate(core.obs_names)
-            if re.sub(r"^prev_obs_\d+_", "", name) not in drop]
-    return np.array(keep, dtype=np.int64)
+    every entry but the task's ``goal_entries``, and their copies in the observation history
+    (block ``t`` of the core's layout repeats the ``task_obs_dim`` task entries)."""
+    D = core.task_obs_dim
+    goal = [j for j, name in enumerate(core.obs_names[:D]) if name in core.task.goal_entries]
+    drop = {t * D + j for t in range(core.n_obs_history + 1) for j in goal}
+    return np.array([i for i in range(len(core.obs_names)) if i not in drop], dtype=np.int64)
 
 
 def goal_space(core: WheelCore, obs_space: spaces.Box,
@@ -446,12 +446,12 @@ class WheelEnv(gym.Env):
         ``ValueError`` listing the valid ones)."""
         super().reset(seed=seed)
         c = self.core
-        obs = c.reset(None, [self.np_random], options)[0].copy()
+        row = c.reset(None, [self.np_random], options)[0]
+        obs = self._goal_obs(row) if self._gc else row.copy()
         self._started = True
         self._ended = False
         info = self._info(True)
         if self._gc:
-            obs = self._goal_obs(obs)
             info.update(self._goal_info(c.task.achieved_goal(), True))
         info["params"] = {k: np.float64(v) for k, v in c.drawn[0].items()}
         info["task"] = self._task_info()
@@ -492,14 +492,15 @@ class WheelEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         if self._gc:
-            return self._goal_obs(self._obs0.copy()), r, t, False, info
+            return self._goal_obs(self._obs0), r, t, False, info
         return self._obs0.copy(), r, t, False, info
 
     # ------------------------------------------------------------------ goal-conditioned
     def _goal_obs(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        """The Dict observation; ``obs`` is the core's row (copied here: the kept columns by
+        their indexing, else whole)."""
         task = self.core.task
-        if self._columns is not None:
-            obs = obs[self._columns]
+        obs = obs.copy() if self._columns is None else obs[self._columns]
         return {"observation": obs, "achieved_goal": task.achieved_goal()[0].astype(np.float32),
                 "desired_goal": task.desired_goal()[0].astype(np.float32)}
 

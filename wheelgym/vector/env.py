@@ -364,12 +364,11 @@ class WheelVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ goal-conditioned
     def _obs(self) -> np.ndarray | dict[str, np.ndarray]:
         """A copy of the batch's observation (a dict of them when ``goal_conditioned``)."""
-        obs = self.core.obs.copy()
+        obs = self.core.obs
         if not self.goal_conditioned:
-            return obs
+            return obs.copy()
         task = self.core.task
-        if self._columns is not None:
-            obs = obs[:, self._columns]
+        obs = obs.copy() if self._columns is None else obs[:, self._columns]
         return {"observation": obs, "achieved_goal": task.achieved_goal().astype(np.float32),
                 "desired_goal": task.desired_goal().astype(np.float32)}
 
