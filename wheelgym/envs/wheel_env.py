@@ -14,7 +14,7 @@ from gymnasium import spaces
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import WheelCore
 
-__all__ = ["WheelEnv", "goal_space"]
+__all__ = ["WheelEnv", "goal_space", "observation_names"]
 
 _F32 = np.dtype(np.float32)
 _F64 = np.dtype(np.float64)
@@ -25,7 +25,9 @@ _DOC = """
 
 float32 ``Box`` with finite bounds; angles enter as cos/sin; positions are in the robot's body
 frame B (x forward, y left, docs/physics/conventions.md) and clipped to +-12 m; speeds to twice the
-sanity limits. Layout by task (the robot's features, listed above, come after the twist):
+sanity limits. ``env.unwrapped.observation_names`` names every entry in order (with
+``goal_conditioned``, those of the Dict's ``observation`` key). Layout by task (the robot's
+features, listed above, come after the twist):
 
 | task     | entries (in order)                                                   | unit        |
 |----------|----------------------------------------------------------------------|-------------|
@@ -288,8 +290,9 @@ shows the policy one goal and pays it for another. The option leaves out the tas
 ``goal_entries`` (``goal_x_b``, ``goal_y_b``, ``cos_dyaw``, ``sin_dyaw``; navigate also
 ``goal_dist``, ``cos_bearing``, ``sin_bearing``; their copies in the observation history too),
 with their bounds, so the goal reaches the policy only as ``desired_goal`` and
-``achieved_goal``, in the world frame. The default keeps them (the plain env's observation). It
-cannot be combined with navigate's ``waypoint_hint``, a plan to the env's own goal.
+``achieved_goal``, in the world frame (``observation_names`` lists the entries kept). The
+default keeps them (the plain env's observation). It cannot be combined with navigate's
+``waypoint_hint``, a plan to the env's own goal.
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
 (reward 0, see Episode End) are outside this.
@@ -341,6 +344,13 @@ def goal_free_columns(core: WheelCore) -> np.ndarray:
     return np.array([i for i in range(len(core.obs_names)) if i not in drop], dtype=np.int64)
 
 
+def observation_names(core: WheelCore, columns: np.ndarray | None = None) -> tuple[str, ...]:
+    """The names of the observation's entries in order (the "Observation Space" table);
+    ``columns``: those kept (``goal_free_columns``; None: all)."""
+    names = tuple(core.obs_names)
+    return names if columns is None else tuple(names[int(i)] for i in columns)
+
+
 def goal_space(core: WheelCore, obs_space: spaces.Box,
                columns: np.ndarray | None = None) -> spaces.Dict:
     """The ``goal_conditioned`` observation space of ``core``'s task (one env); ``columns``:
@@ -386,6 +396,9 @@ class WheelEnv(gym.Env):
             self.compute_truncated = self._compute_truncated
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / c.dt))}
         self._names = c.task.names
+        #: The observation's entry names in order (``goal_conditioned``: those of the
+        #: ``observation`` key, without the goal's with ``goal_free_observation``).
+        self.observation_names: tuple[str, ...] = observation_names(c, self._columns)
         self._tidx = [int(k) for k in c.task.term_index]
         self._shape = (c.action_dim,)
         self._renderer = None

@@ -65,7 +65,7 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
-from wheelgym.envs.wheel_env import goal_free_columns, goal_space
+from wheelgym.envs.wheel_env import goal_free_columns, goal_space, observation_names
 from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
@@ -242,6 +242,9 @@ class WheelVectorEnv(VectorEnv):
         if self.goal_conditioned:
             self.single_observation_space = goal_space(c, self.single_observation_space,
                                                        self._columns)
+        #: The single observation's entry names in order (the single env's
+        #: ``observation_names``).
+        self.observation_names: tuple[str, ...] = observation_names(c, self._columns)
         self._prev_ag: np.ndarray | None = None
         self.action_space = batch_space(self.single_action_space, N)
         self.observation_space = batch_space(self.single_observation_space, N)
