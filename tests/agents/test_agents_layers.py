@@ -119,7 +119,9 @@ def test_config_is_the_bottom_layer():
     assert graph[f"{PACKAGE}.config"] == {f"{PACKAGE}.pipeline"}
     assert graph[f"{PACKAGE}.bounded_policy"] == set()  # an SB3 policy class: torch and SB3 only
     assert graph[f"{PACKAGE}.clone"] == set()  # the envs' baseline and an SB3 model only
-    assert graph[f"{PACKAGE}.common"] == {f"{PACKAGE}.config", f"{PACKAGE}.bounded_policy"}
+    assert graph[f"{PACKAGE}.her"] == set()  # an SB3 replay buffer class: SB3 only
+    assert graph[f"{PACKAGE}.common"] == {f"{PACKAGE}.config", f"{PACKAGE}.bounded_policy",
+                                          f"{PACKAGE}.her"}
 
 
 def test_import_wheelgym_leaves_agents_and_heavy_packages_alone():

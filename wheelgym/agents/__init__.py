@@ -4,6 +4,7 @@ Needs the ``train`` extra (``pip install -e ".[train]"``). Submodules:
 
 - :mod:`wheelgym.agents.config`: YAML configs (RL Zoo layout plus a ``wheelgym`` block)
 - :mod:`wheelgym.agents.common`: SB3 algorithm, environments and ``VecNormalize`` from a config
+- :mod:`wheelgym.agents.her`: hindsight relabelling whose relabelled successes end their transition
 - :mod:`wheelgym.agents.policies`: the ``predict`` interface: agent, baseline and random policies
 - :mod:`wheelgym.agents.evaluate`: one loop scoring agent, baseline and random on the same seeds
 - :mod:`wheelgym.agents.train`: ``train(config)``, ``resume(run)``, run folders

@@ -146,8 +146,11 @@ def algo_kwargs(config: TrainConfig, n_actions: int | None = None) -> dict[str, 
         import stable_baselines3 as sb3
         from stable_baselines3.common import buffers
 
+        from wheelgym.agents import her
+
         name = kw["replay_buffer_class"]
-        kw["replay_buffer_class"] = getattr(sb3, name, None) or getattr(buffers, name)
+        kw["replay_buffer_class"] = (getattr(her, name, None) or getattr(sb3, name, None)
+                                     or getattr(buffers, name))
     if isinstance(kw.get("train_freq"), list):
         kw["train_freq"] = tuple(kw["train_freq"])
     pk = dict(kw.get("policy_kwargs", {}))

@@ -332,7 +332,8 @@ _LIMITS: dict[str, Any] = {
 _ALGO_LIMITS: dict[str, dict[str, Any]] = {"ppo": {"n_steps": _int(2), "batch_size": _int(2)}}
 # Policy arguments written in a plain form of our own instead of their annotated type.
 #: Replay buffer classes a config may name (``replay_buffer_class``; off-policy algorithms).
-REPLAY_BUFFERS: tuple[str, ...] = ("ReplayBuffer", "DictReplayBuffer", "HerReplayBuffer")
+REPLAY_BUFFERS: tuple[str, ...] = ("ReplayBuffer", "DictReplayBuffer", "HerReplayBuffer",
+                                   "TerminatingHerReplayBuffer")  # the last: agents.her
 #: Algorithm arguments written in a plain form of our own (class-typed ones, by name).
 _ALGO_PLAIN_FORMS: dict[str, Any] = {"replay_buffer_class": _choice(*REPLAY_BUFFERS)}
 _PLAIN_FORMS: dict[str, Any] = {

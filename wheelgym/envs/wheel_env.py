@@ -295,7 +295,13 @@ default keeps them (the plain env's observation). It cannot be combined with nav
 ``waypoint_hint``, a plan to the env's own goal.
 ``compute_terminated``: success within the tolerances or ``info["terminated_goal_free"]``
 (overspeed, numerical failure, collision); ``compute_truncated``: False. Steps after the end
-(reward 0, see Episode End) are outside this.
+(reward 0, see Episode End) are outside this. Success ends the episode, which SB3's
+``HerReplayBuffer`` does not know: it keeps each relabelled transition's stored ``done``, so
+a relabelled goal reached mid-episode does not end its transition (the critic bootstraps on
+and collects the success bonus again on the next steps near that goal) and a transition that
+ended on its episode's goal stays ended for a goal it did not reach.
+``wheelgym.agents.her.TerminatingHerReplayBuffer`` (the same arguments) takes each relabelled
+transition's end from ``compute_terminated``; the SAC+HER configs use it.
 
 ## Copies
 

@@ -1,0 +1,75 @@
+"""TerminatingHerReplayBuffer: relabelled transitions end where ``compute_terminated`` says.
+
+Checked against the env, not the buffer's own arithmetic: every virtual transition of a sampled
+batch is rebuilt from the raw buffer (next achieved goal, the relabelled goal as the sample
+shows it, the stored info) and asked of the single env's ``compute_terminated``; a transition
+whose relabelled goal is its own next achieved goal must be terminal (success), which SB3's
+``HerReplayBuffer`` leaves as stored."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import gymnasium as gym  # noqa: E402
+from stable_baselines3 import SAC, HerReplayBuffer  # noqa: E402
+
+from tests.vector.conftest import env_id  # noqa: E402
+from wheelgym.agents.her import TerminatingHerReplayBuffer  # noqa: E402
+from wheelgym.vector import make_sb3_vec_env  # noqa: E402
+
+KW = {"task": "goal", "action_mode": "velocity", "goal_conditioned": True,
+      "goal_free_observation": True, "max_episode_steps": 40}
+
+
+def _filled(buffer_class: type) -> SAC:
+    venv = make_sb3_vec_env(env_id("ThreeWheel"), num_envs=2, seed=0, **KW)
+    model = SAC("MultiInputPolicy", venv, learning_starts=400, batch_size=64, seed=0,
+                policy_kwargs={"net_arch": [8]}, replay_buffer_class=buffer_class,
+                replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future",
+                                      "copy_info_dict": True})
+    model.learn(400)  # collection only (learning starts at 400)
+    return model
+
+
+def _virtual_dones(model: SAC, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The virtual half of one batch: the dones the buffer gives, and those the single env's
+    compute_terminated gives for the same transitions and relabelled goals."""
+    buf = model.replay_buffer
+    n = 256
+    valid = np.flatnonzero(buf.ep_length > 0)
+    rng = np.random.default_rng(seed)  # the transitions; SB3 draws the goals (seeded by SAC)
+    b, e = np.unravel_index(rng.choice(valid, n), buf.ep_length.shape)
+    data = buf._get_virtual_samples(b, e)
+    goals = data.observations["desired_goal"].numpy().astype(np.float64)
+    achieved = buf.next_observations["achieved_goal"][b, e]
+    env = gym.make(env_id("ThreeWheel"), **KW).unwrapped
+    want = np.array([env.compute_terminated(achieved[k], goals[k], buf.infos[b[k], e[k]])
+                     for k in range(n)], dtype=np.float32)
+    return data.dones.numpy().reshape(-1), want
+
+
+def test_relabelled_transitions_end_where_the_env_says():
+    model = _filled(TerminatingHerReplayBuffer)
+    got, want = _virtual_dones(model, seed=1)
+    np.testing.assert_array_equal(got, want)
+    assert 0 < want.sum() < len(want)  # some relabelled goals reached, most not
+    # and training runs on it
+    model.learn(200, reset_num_timesteps=False)
+    assert model.num_timesteps >= 600
+
+
+def test_sb3s_buffer_keeps_the_stored_dones():
+    """Why the class exists: the same batch from SB3's buffer misses those ends."""
+    got, want = _virtual_dones(_filled(HerReplayBuffer), seed=1)
+    assert want.sum() > 0 and not np.array_equal(got, want)
+
+
+def test_needs_copy_info_dict():
+    venv = make_sb3_vec_env(env_id("ThreeWheel"), num_envs=2, seed=0, **KW)
+    with pytest.raises(ValueError, match="copy_info_dict=True"):
+        SAC("MultiInputPolicy", venv, replay_buffer_class=TerminatingHerReplayBuffer,
+            replay_buffer_kwargs={"copy_info_dict": False})
+
