@@ -27,7 +27,7 @@ BLOCKS = [(p.relative_to(ROOT).as_posix(), k, b) for p in PAGES if "topics" not 
 #: folder holding links to them, so that what it writes stays out of the checkout).
 REPO_PATHS = ("configs", "agents", "benchmarks", "examples")
 #: A block that trains (seconds to minutes of CPU) is a slow test.
-SLOW = re.compile(r"\btrain\(|wheelgym\.agents\.(train|tune|benchmark)\b")
+SLOW = re.compile(r"\btrain\(|\.learn\(|wheelgym\.agents\.(train|tune|benchmark)\b")
 
 
 def test_pages_show_python() -> None:
