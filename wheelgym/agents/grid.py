@@ -118,8 +118,30 @@ def run_job(job: Job) -> dict | None:
     return row
 
 
+def end_with_parent() -> None:
+    """Have this process receive SIGTERM when the process that started it ends (Linux's
+    ``PR_SET_PDEATHSIG``; elsewhere nothing): a pool worker whose parent was killed stops
+    instead of training on for a row nobody will write. A parent already gone ends it now."""
+    import ctypes
+    import ctypes.util
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    parent = os.getppid()
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if parent == 1 or os.getppid() != parent:  # the parent ended before the call took effect
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
 def worker_init() -> None:
-    """A pool process: one torch thread, one numba thread; Ctrl-C is the training's to handle."""
+    """A pool process: one torch thread, one numba thread; Ctrl-C is the training's to handle;
+    it ends with its parent (:func:`end_with_parent`)."""
+    end_with_parent()
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", WORKER_ENV):
         os.environ[var] = "1"
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # train() installs its own handler meanwhile
