@@ -73,3 +73,14 @@ def test_needs_copy_info_dict():
         SAC("MultiInputPolicy", venv, replay_buffer_class=TerminatingHerReplayBuffer,
             replay_buffer_kwargs={"copy_info_dict": False})
 
+
+
+def test_trains_on_a_single_env_too():
+    """SB3 wraps a single env in its DummyVecEnv, whose env_method reaches compute_terminated
+    through Gymnasium's wrappers."""
+    env = gym.make(env_id("ThreeWheel"), **KW)
+    model = SAC("MultiInputPolicy", env, learning_starts=100, batch_size=32, seed=0,
+                policy_kwargs={"net_arch": [8]}, replay_buffer_class=TerminatingHerReplayBuffer,
+                replay_buffer_kwargs={"copy_info_dict": True})
+    model.learn(200)
+    assert model.num_timesteps == 200
