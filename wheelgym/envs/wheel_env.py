@@ -301,7 +301,7 @@ a relabelled goal reached mid-episode does not end its transition (the critic bo
 and collects the success bonus again on the next steps near that goal) and a transition that
 ended on its episode's goal stays ended for a goal it did not reach.
 ``wheelgym.agents.her.TerminatingHerReplayBuffer`` (the same arguments) takes each relabelled
-transition's end from ``compute_terminated``; the SAC+HER configs use it.
+transition's end from ``compute_terminated``; ``configs/ThreeWheel-goal-velocity-her.yml`` uses it.
 
 ## Copies
 
