@@ -14,6 +14,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import gymnasium as gym  # noqa: E402
+import torch as th  # noqa: E402
 from stable_baselines3 import SAC, HerReplayBuffer  # noqa: E402
 
 from tests.vector.conftest import env_id  # noqa: E402
@@ -59,6 +60,25 @@ def test_relabelled_transitions_end_where_the_env_says():
     # and training runs on it
     model.learn(200, reset_num_timesteps=False)
     assert model.num_timesteps >= 600
+
+
+def test_the_batch_is_sb3s_but_the_ends():
+    """The same goals drawn (SB3 draws them from NumPy's global generator): observations,
+    actions and rewards equal SB3's own relabelled batch bit for bit; the ends differ where a
+    relabelled goal was reached."""
+    model = _filled(TerminatingHerReplayBuffer)
+    buf = model.replay_buffer
+    valid = np.flatnonzero(buf.ep_length > 0)
+    b, e = np.unravel_index(np.random.default_rng(2).choice(valid, 256), buf.ep_length.shape)
+    state = np.random.get_state()  # noqa: NPY002  (SB3's goal draws use the global generator)
+    ours = buf._get_virtual_samples(b, e)
+    np.random.set_state(state)  # noqa: NPY002
+    sb3 = HerReplayBuffer._get_virtual_samples(buf, b, e)
+    for key in ours.observations:
+        assert th.equal(ours.observations[key], sb3.observations[key]), key
+        assert th.equal(ours.next_observations[key], sb3.next_observations[key]), key
+    assert th.equal(ours.actions, sb3.actions) and th.equal(ours.rewards, sb3.rewards)
+    assert ours.dones.sum() > 0 and not th.equal(ours.dones, sb3.dones)
 
 
 def test_sb3s_buffer_keeps_the_stored_dones():
