@@ -36,6 +36,7 @@ from wheelgym.agents.pretrained import (  # noqa: E402
     load_pretrained,
     pretrained_root,
     read_card,
+    slim_model,
 )
 from wheelgym.cli import main  # noqa: E402
 
@@ -121,6 +122,36 @@ def test_export_copies_the_best_seed_with_its_card(bench):
     assert card["scores"]["agent_rms"] is None  # goal task: no RMS tracking error
     assert card["files"]["model.zip"] == (folder / "model.zip").stat().st_size
     assert not [p for p in bench.root.iterdir() if p.name.startswith(".")]  # no leftovers
+
+
+def test_slim_model_empties_every_optimizer_of_a_sac_model(tmp_path):
+    """SAC saves three optimizers (actor, critic, entropy coefficient): each loses its
+    moments, the weights stay byte for byte, and SAC.load acts as the trained model did."""
+    import gymnasium as gym
+    from stable_baselines3 import SAC
+
+    env = gym.make("wheelgym/DiffDrive-v0", task="goal")
+    model = SAC("MlpPolicy", env, learning_starts=50, batch_size=16, seed=0,
+                policy_kwargs={"net_arch": [8]})
+    model.learn(80)
+    model.save(tmp_path / "sac.zip")
+    (tmp_path / "slim.zip").write_bytes(slim_model(tmp_path / "sac.zip"))
+    with zipfile.ZipFile(tmp_path / "slim.zip") as slim, \
+            zipfile.ZipFile(tmp_path / "sac.zip") as full:
+        opts = [n for n in full.namelist() if n.endswith("optimizer.pth")]
+        assert len(opts) == 3
+        for entry in full.namelist():
+            if entry in opts:
+                a = th.load(io.BytesIO(slim.read(entry)), weights_only=True)
+                b = th.load(io.BytesIO(full.read(entry)), weights_only=True)
+                assert a["state"] == {} and b["state"], entry
+                assert a["param_groups"] == b["param_groups"], entry
+            else:
+                assert slim.read(entry) == full.read(entry), entry
+    obs = np.random.default_rng(0).normal(size=(4, env.observation_space.shape[0]))
+    np.testing.assert_array_equal(
+        SAC.load(tmp_path / "slim.zip").predict(obs, deterministic=True)[0],
+        model.predict(obs, deterministic=True)[0])
 
 
 def test_best_seed_order_success_then_rms_then_return():

@@ -184,14 +184,16 @@ def _shown(path: Path) -> str:
     return str(path)
 
 
-#: The entry of an SB3 model file holding the optimizer's state dict.
-OPTIMIZER_ENTRY = "policy.optimizer.pth"
+#: How the entries of an SB3 model file holding an optimizer's state dict end (PPO's
+#: ``policy.optimizer.pth``; SAC's ``actor.optimizer.pth``, ``critic.optimizer.pth`` and
+#: ``ent_coef_optimizer.pth``).
+OPTIMIZER_SUFFIX = "optimizer.pth"
 
 
 def slim_model(src: str | Path) -> bytes:
-    """``src`` (an SB3 ``model.zip``) without the optimizer's per-parameter state.
+    """``src`` (an SB3 ``model.zip``) without the optimizers' per-parameter state.
 
-    The optimizer's state dict keeps its parameter groups (learning rate, betas) and loses its
+    Each optimizer's state dict keeps its parameter groups (learning rate, betas) and loses its
     ``state`` (Adam's two moment estimates per weight: twice the weights' size), so
     ``<Algo>.load`` still reads the file; a run trained on from it starts the moments afresh.
     Every other entry, the weights included, is copied byte for byte.
@@ -202,7 +204,7 @@ def slim_model(src: str | Path) -> bytes:
     with zipfile.ZipFile(src) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
         for info in zin.infolist():
             data = zin.read(info)
-            if info.filename == OPTIMIZER_ENTRY:
+            if info.filename.endswith(OPTIMIZER_SUFFIX):
                 state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
                 state["state"] = {}
                 buf = io.BytesIO()
