@@ -123,15 +123,13 @@ def end_with_parent() -> None:
     ``PR_SET_PDEATHSIG``; elsewhere nothing): a pool worker whose parent was killed stops
     instead of training on for a row nobody will write. A parent already gone ends it now."""
     import ctypes
-    import ctypes.util
     import sys
 
     if not sys.platform.startswith("linux"):
         return
     parent = os.getppid()
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # 1: PR_SET_PDEATHSIG
+    try:  # the C library's prctl, already loaded in this process
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PDEATHSIG
     except (OSError, AttributeError):
         return
     if parent == 1 or os.getppid() != parent:  # the parent ended before the call took effect

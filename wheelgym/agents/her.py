@@ -31,7 +31,7 @@ from stable_baselines3 import HerReplayBuffer
 from stable_baselines3.common.type_aliases import DictReplayBufferSamples
 from stable_baselines3.common.vec_env import VecNormalize
 
-from wheelgym.tasks.tasks import HER_INFO_KEYS
+from wheelgym.tasks.tasks import HER_INFO_KEYS, her_info_arrays
 
 __all__ = ["TerminatingHerReplayBuffer"]
 
@@ -61,11 +61,12 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
         goals = self._sample_goals(batch_indices, env_indices)
         obs["desired_goal"] = nxt["desired_goal"] = goals
         rows = self.infos[batch_indices, env_indices]  # the stored step infos, read only
-        info = {k: np.array([r[k] for r in rows]) for k in HER_INFO_KEYS}
+        info = dict(zip(HER_INFO_KEYS, her_info_arrays(rows, (len(rows),), goals.shape[-1]),
+                        strict=True))
         # r_t depends on s_{t+1}: the next achieved goal against the relabelled goal
-        reward, ended = (self.env.env_method(name, nxt["achieved_goal"], goals, info,
-                                             indices=[0])[0]
-                         for name in ("compute_reward", "compute_terminated"))
+        achieved = nxt["achieved_goal"]
+        reward = self.env.env_method("compute_reward", achieved, goals, info, indices=[0])[0]
+        ended = self.env.env_method("compute_terminated", achieved, goals, info, indices=[0])[0]
         reward = np.asarray(reward).astype(np.float32).reshape(-1, 1)
         obs, nxt = self._normalize_obs(obs, env), self._normalize_obs(nxt, env)
         return DictReplayBufferSamples(
