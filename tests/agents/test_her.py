@@ -104,3 +104,46 @@ def test_trains_on_a_single_env_too():
                 replay_buffer_kwargs={"copy_info_dict": True})
     model.learn(200)
     assert model.num_timesteps == 200
+
+
+def _goal_seen(obs: dict[str, np.ndarray]) -> np.ndarray:
+    """The goal (x, y, cos yaw, sin yaw) that the observation's body-frame entries show, put
+    back into the world frame from the achieved goal (pose): the inverse rotation."""
+    a, o = obs["achieved_goal"].astype(np.float64), obs["observation"].astype(np.float64)
+    ca, sa = a[:, 2], a[:, 3]
+    xb, yb, cd, sd = o[:, 0], o[:, 1], o[:, 2], o[:, 3]
+    return np.stack([a[:, 0] + ca * xb - sa * yb, a[:, 1] + sa * xb + ca * yb,
+                     ca * cd - sa * sd, sa * cd + ca * sd], axis=1)
+
+
+@pytest.mark.parametrize("relabel", [True, False])
+def test_relabel_observation_shows_the_relabelled_goal(relabel):
+    """With relabel_observation the goal in the body frame of every relabelled observation and
+    next observation is the relabelled desired goal (an inverse rotation, not the buffer's
+    formula); without it (SB3's behaviour) it is still the episode's goal."""
+    kw = {**KW, "goal_free_observation": False}
+    venv = make_sb3_vec_env(env_id("ThreeWheel"), num_envs=2, seed=0, **kw)
+    model = SAC("MultiInputPolicy", venv, learning_starts=400, batch_size=64, seed=0,
+                policy_kwargs={"net_arch": [8]}, replay_buffer_class=TerminatingHerReplayBuffer,
+                replay_buffer_kwargs={"n_sampled_goal": 4, "copy_info_dict": True,
+                                      "relabel_observation": relabel})
+    model.learn(400)
+    buf = model.replay_buffer
+    b, e = np.unravel_index(np.random.default_rng(4).choice(np.flatnonzero(buf.ep_length > 0),
+                                                            256), buf.ep_length.shape)
+    data = buf._get_virtual_samples(b, e)
+    for side in (data.observations, data.next_observations):
+        o = {k: v.numpy() for k, v in side.items()}
+        err = np.abs(_goal_seen(o) - o["desired_goal"]).max(axis=1)
+        if relabel:
+            assert err.max() < 1e-4
+        else:  # the stored observation shows the episode's goal, not the relabelled one
+            assert (err > 1e-2).mean() > 0.9
+    model.learn(200, reset_num_timesteps=False)  # and it trains
+
+
+def test_relabel_observation_refuses_a_goal_free_observation():
+    venv = make_sb3_vec_env(env_id("ThreeWheel"), num_envs=2, seed=0, **KW)
+    with pytest.raises(ValueError, match="goal_free_observation=False"):
+        SAC("MultiInputPolicy", venv, replay_buffer_class=TerminatingHerReplayBuffer,
+            replay_buffer_kwargs={"copy_info_dict": True, "relabel_observation": True})

@@ -264,3 +264,62 @@ def test_goal_free_observation_bad_values_raise():
     with pytest.raises(ValueError, match="waypoint_hint"):
         gym.make("wheelgym/ThreeWheel-v1", task="navigate", goal_conditioned=True,
                  waypoint_hint=True, goal_free_observation=True)
+
+
+# ---------------------------------------------------------------- relabel_observation
+GOAL_CASES = [c for c in CASES if c[1] == "goal"]
+
+
+@pytest.mark.parametrize("robot,task,mode", GOAL_CASES)
+def test_relabel_observation_is_the_kernels_observation(robot, task, mode):
+    """Independent of the NumPy formula: the same start with another goal, reset through the
+    compiled kernel, observes what relabelling the first observation for that goal gives; with
+    the episode's own goal relabelling changes nothing (to the goals' float32 rounding)."""
+    env = make(robot, task, mode)
+    u = env.unwrapped
+    start, g1, g2 = np.array([0.3, -0.2, 0.7]), np.array([2.0, 1.0, -2.5]), \
+        np.array([-1.5, 2.2, 3.0])
+    o1, _ = env.reset(seed=0, options={"start": start, "goal": g1})
+    o2, _ = env.reset(seed=0, options={"start": start, "goal": g2})
+    got = u.relabel_observation(o1["observation"], o1["achieved_goal"], o2["desired_goal"])
+    assert got.dtype == np.float32 and not np.array_equal(o1["observation"], o2["observation"])
+    np.testing.assert_allclose(got, o2["observation"], atol=1e-6)
+    obs, _ = env.reset(seed=3)
+    for _ in range(60):  # moving, with the episode's own goal
+        obs, *_ = env.step(0.5 * np.ones(env.action_space.shape))
+        np.testing.assert_allclose(
+            u.relabel_observation(obs["observation"], obs["achieved_goal"],
+                                  obs["desired_goal"]), obs["observation"], atol=1e-6)
+    # batched over leading axes, the single env's rows; the vector env gives the same
+    vec = gym.make_vec(env_id(robot), num_envs=2, vectorization_mode="vector_entry_point",
+                       task=task, goal_conditioned=True,
+                       **({} if mode is None else {"action_mode": mode}))
+    O = np.stack([o1["observation"]] * 3)
+    A = np.stack([o1["achieved_goal"]] * 3)
+    G = np.stack([o1["desired_goal"], o2["desired_goal"], o1["desired_goal"]])
+    batch = u.relabel_observation(O, A, G)
+    np.testing.assert_array_equal(batch[1], got)
+    np.testing.assert_array_equal(vec.unwrapped.relabel_observation(O, A, G), batch)
+
+
+def test_relabel_observation_refuses_what_it_cannot_recompute():
+    base = {"task": "goal", "action_mode": "velocity", "goal_conditioned": True}
+    for kw, match in (({"goal_free_observation": True}, "goal_free_observation=False"),
+                      ({"obs_history": 2}, "obs_history"),
+                      ({"obs_noise": 0.01}, "obs_noise"),
+                      ({"perturbation": "easy"}, "obs_noise, perturbation obs_dropped")):
+        env = gym.make(env_id("ThreeWheel"), **base, **kw)
+        obs, _ = env.reset(seed=0)
+        with pytest.raises(ValueError, match=match):
+            env.unwrapped.relabel_observation(obs["observation"], obs["achieved_goal"],
+                                              obs["desired_goal"])
+    nav = make("DiffDrive", "navigate", None)
+    obs, _ = nav.reset(seed=0)
+    with pytest.raises(ValueError, match="navigate task's observation entries"):
+        nav.unwrapped.relabel_observation(obs["observation"], obs["achieved_goal"],
+                                          obs["desired_goal"])
+    env = make("ThreeWheel", "goal", "velocity")
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="observation must have shape"):
+        env.unwrapped.relabel_observation(obs["observation"][:-1], obs["achieved_goal"],
+                                          obs["desired_goal"])

@@ -20,6 +20,12 @@ env's ``compute_reward`` and ``compute_terminated`` read (``tasks.HER_INFO_KEYS`
 once into arrays and passed to both, where SB3's buffer deep-copies every stored info dict of
 the batch first (a quarter of a 64x64 SAC+HER training's time here); the rewards are the same
 bits.
+
+``relabel_observation=True`` (a ``replay_buffer_kwargs`` key) also rewrites the goal's entries
+of each relabelled transition's ``observation`` (the goal in the body frame: ``goal_x_b``,
+``goal_y_b``, ``cos_dyaw``, ``sin_dyaw``) with the env's ``relabel_observation``, so the policy
+sees the relabelled goal as the plain env's observation shows its goal; SB3's buffer relabels
+``desired_goal`` only, which is why its users need ``goal_free_observation=True``.
 """
 
 from __future__ import annotations
@@ -39,17 +45,24 @@ __all__ = ["TerminatingHerReplayBuffer"]
 class TerminatingHerReplayBuffer(HerReplayBuffer):
     """``HerReplayBuffer`` whose relabelled transitions end where the env says they end
     (module docstring). Arguments: those of ``HerReplayBuffer``; ``copy_info_dict`` must be
-    True.
+    True; ``relabel_observation``: also recompute the observation's goal entries for the
+    relabelled goal (the env must keep them: ``goal_free_observation=False``).
 
     Raises:
-        ValueError: ``copy_info_dict`` is False.
+        ValueError: ``copy_info_dict`` is False, or ``relabel_observation`` with an env whose
+            observation cannot be relabelled (the env's message says why).
     """
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, relabel_observation: bool = False, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         if not self.copy_info_dict:
             raise ValueError("TerminatingHerReplayBuffer needs replay_buffer_kwargs "
                              "copy_info_dict=True (compute_terminated reads the step info)")
+        self.relabel_observation = bool(relabel_observation)
+        if self.relabel_observation and self.env is not None:  # the env's error, now
+            o = np.zeros((1, *self.obs_shape["observation"]), dtype=np.float32)
+            g = np.zeros((1, *self.obs_shape["desired_goal"]), dtype=np.float32)
+            self.env.env_method("relabel_observation", o, g, g, indices=[0])
 
     def _get_virtual_samples(self, batch_indices: np.ndarray, env_indices: np.ndarray,
                              env: VecNormalize | None = None) -> DictReplayBufferSamples:
@@ -68,6 +81,11 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
         reward = self.env.env_method("compute_reward", achieved, goals, info, indices=[0])[0]
         ended = self.env.env_method("compute_terminated", achieved, goals, info, indices=[0])[0]
         reward = np.asarray(reward).astype(np.float32).reshape(-1, 1)
+        if self.relabel_observation:  # each observation seen from its own pose
+            for o in (obs, nxt):
+                o["observation"] = self.env.env_method(
+                    "relabel_observation", o["observation"], o["achieved_goal"], goals,
+                    indices=[0])[0]
         obs, nxt = self._normalize_obs(obs, env), self._normalize_obs(nxt, env)
         return DictReplayBufferSamples(
             observations={k: self.to_torch(v) for k, v in obs.items()},

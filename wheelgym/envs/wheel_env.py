@@ -302,6 +302,14 @@ and collects the success bonus again on the next steps near that goal) and a tra
 ended on its episode's goal stays ended for a goal it did not reach.
 ``wheelgym.agents.her.TerminatingHerReplayBuffer`` (the same arguments) takes each relabelled
 transition's end from ``compute_terminated``; ``configs/ThreeWheel-goal-velocity-her.yml`` uses it.
+``relabel_observation(observation, achieved_goal, desired_goal)`` (goal task, batched) is the
+``observation`` key with the goal's entries recomputed for another goal from the robot's pose
+(``achieved_goal``): what the robot would have observed with that goal. With
+``replay_buffer_kwargs=dict(..., relabel_observation=True)`` the terminating buffer rewrites
+every relabelled observation so, and the policy keeps the goal in its body frame
+(``goal_free_observation=False``). It raises a ``ValueError`` where the observation holds entries
+it cannot recompute: observation history, noise, dropped or stuck entries, and navigate's
+(whose goal space has no yaw and whose bearing entries follow the plan).
 
 ## Copies
 
@@ -348,6 +356,43 @@ def goal_free_columns(core: WheelCore) -> np.ndarray:
     goal = [j for j, name in enumerate(core.obs_names[:D]) if name in core.task.goal_entries]
     drop = {t * D + j for t in range(core.n_obs_history + 1) for j in goal}
     return np.array([i for i in range(len(core.obs_names)) if i not in drop], dtype=np.int64)
+
+
+def relabel_observation(core: WheelCore, columns: np.ndarray | None, observation: np.ndarray,
+                        achieved_goal: np.ndarray, desired_goal: np.ndarray) -> np.ndarray:
+    """``observation`` (the Dict observation's ``observation`` key, batched over leading axes)
+    with its goal entries recomputed for ``desired_goal`` from the robot's ``achieved_goal``
+    (``GoalTask.goal_observation``), a new float32 array: what the env would have observed had
+    its goal been ``desired_goal`` ("Goal-conditioned"). ``columns``: ``goal_free_columns`` or
+    None.
+
+    Raises:
+        ValueError: the observation holds no goal entries (``goal_free_observation``), or other
+            entries depend on the goal or on past poses (observation history, noise, dropped or
+            stuck entries), or the task's goal entries are not functions of its goal space
+            (navigate)."""
+    if columns is not None:
+        raise ValueError("relabel_observation needs the goal's entries in the observation "
+                         "(goal_free_observation=False); a goal-free observation needs none")
+    p = core.perturbation
+    reasons = [r for r, on in (
+        ("obs_history", core.n_obs_history > 0),
+        ("obs_noise", core.obs_noise > 0 or (p is not None and p.obs_noise > 0)),
+        ("perturbation obs_dropped", p is not None and p.obs_dropped[0] > 0),
+        ("perturbation obs_stuck", p is not None and p.obs_stuck[0] > 0)) if on]
+    if reasons:
+        raise ValueError(f"relabel_observation cannot recompute the goal's entries with "
+                         f"{', '.join(reasons)} (they hold past poses or drawn errors); use "
+                         "goal_free_observation=True")
+    goal = core.task.goal_observation(achieved_goal, desired_goal)
+    names = core.obs_names[:core.task_obs_dim]
+    cols = [names.index(n) for n in core.task.goal_entries]
+    out = np.array(observation, dtype=np.float32)
+    if out.shape[:-1] != goal.shape[:-1] or out.shape[-1] != len(core.obs_names):
+        raise ValueError(f"observation must have shape (..., {len(core.obs_names)}) with the "
+                         f"goals' leading shape {goal.shape[:-1]}, got {out.shape}")
+    out[..., cols] = goal
+    return out
 
 
 def observation_names(core: WheelCore, columns: np.ndarray | None = None) -> tuple[str, ...]:
@@ -400,6 +445,7 @@ class WheelEnv(gym.Env):
             self.compute_reward = self._compute_reward
             self.compute_terminated = self._compute_terminated
             self.compute_truncated = self._compute_truncated
+            self.relabel_observation = self._relabel_observation
         self.metadata = {**self.metadata, "render_fps": int(round(1.0 / c.dt))}
         self._names = c.task.names
         #: The observation's entry names in order (``goal_conditioned``: those of the
@@ -549,6 +595,15 @@ class WheelEnv(gym.Env):
         depend on the goal (overspeed, numerical failure, collision)."""
         t = self._goal_task().compute_terminated(achieved_goal, desired_goal, info)
         return bool(t) if np.ndim(t) == 0 else t
+
+    def _relabel_observation(self, observation: np.ndarray, achieved_goal: np.ndarray,
+                             desired_goal: np.ndarray) -> np.ndarray:
+        """The ``observation`` key with its goal entries recomputed for ``desired_goal``
+        (batched over leading axes): what the robot at ``achieved_goal`` would have observed
+        with that goal, for hindsight relabelling ("Goal-conditioned";
+        :func:`relabel_observation` says when it raises)."""
+        return relabel_observation(self.core, self._columns, observation, achieved_goal,
+                                   desired_goal)
 
     def _compute_truncated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
                           info: Any) -> np.ndarray | bool:

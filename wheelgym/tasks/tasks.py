@@ -347,6 +347,33 @@ class GoalTask(Task):
             ey = np.zeros_like(d)
         return d, ey, (d < self.tol_pos) & (ey < self.tol_yaw)
 
+    def goal_observation(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """The observation's goal entries (:attr:`goal_entries`: ``goal_x_b``, ``goal_y_b``,
+        ``cos_dyaw``, ``sin_dyaw``) for the robot at ``achieved`` and the goal ``desired``
+        (goal-space arrays, batched over leading axes), as the kernel's ``_target_obs``
+        computes them from the pose: the goal's position in the body frame, clipped to
+        ``POS_CLIP``, and cos and sin of goal yaw minus yaw. Float64 ``(..., 4)``.
+
+        Raises:
+            ValueError: the task's goal entries are not functions of its goal space (navigate:
+                its goal space holds no yaw, and its bearing entries follow the plan)."""
+        if type(self).goal_entries != GoalTask.goal_entries or not self.goal_yaw:
+            raise ValueError(f"the {self.name} task's observation entries {self.goal_entries} "
+                             "are not functions of its goal space (x, y"
+                             f"{', cos yaw, sin yaw' if self.goal_yaw else ''}): only the goal "
+                             "task's observation can be relabelled")
+        achieved, desired = _goal_arrays(achieved, desired, self.goal_dim)
+        ca, sa = achieved[..., 2], achieved[..., 3]
+        cg, sg = desired[..., 2], desired[..., 3]
+        dx = desired[..., 0] - achieved[..., 0]
+        dy = desired[..., 1] - achieved[..., 1]
+        out = np.empty(achieved.shape[:-1] + (4,))
+        out[..., 0] = np.clip(ca * dx + sa * dy, -POS_CLIP, POS_CLIP)
+        out[..., 1] = np.clip(-sa * dx + ca * dy, -POS_CLIP, POS_CLIP)
+        out[..., 2] = cg * ca + sg * sa  # cos(goal yaw - yaw)
+        out[..., 3] = sg * ca - cg * sa  # sin(goal yaw - yaw)
+        return out
+
     def compute_reward(self, achieved: np.ndarray, desired: np.ndarray,
                        info: HerInfo) -> np.ndarray:
         """The step reward for any goals, batched over leading axes (Gymnasium-Robotics)."""

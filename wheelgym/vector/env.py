@@ -65,7 +65,12 @@ from gymnasium.vector.utils import batch_space
 
 from wheelgym.envs.config import EnvConfig, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
-from wheelgym.envs.wheel_env import goal_free_columns, goal_space, observation_names
+from wheelgym.envs.wheel_env import (
+    goal_free_columns,
+    goal_space,
+    observation_names,
+    relabel_observation,
+)
 from wheelgym.vector._kernels import k_info_copy, k_step_ends, k_zero_rows
 
 __all__ = [
@@ -401,6 +406,14 @@ class WheelVectorEnv(VectorEnv):
                            info: Any) -> np.ndarray:
         """Success for ``desired_goal`` or a goal-independent end, batched."""
         return self._goal_task().compute_terminated(achieved_goal, desired_goal, info)
+
+    def relabel_observation(self, observation: np.ndarray, achieved_goal: np.ndarray,
+                            desired_goal: np.ndarray) -> np.ndarray:
+        """The ``observation`` key with its goal entries recomputed for ``desired_goal``,
+        batched (the single env's :meth:`~wheelgym.envs.WheelEnv.relabel_observation`)."""
+        self._goal_task()
+        return relabel_observation(self.core, self._columns, observation, achieved_goal,
+                                   desired_goal)
 
     def compute_truncated(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
                           info: Any) -> np.ndarray:
