@@ -15,11 +15,11 @@ collision); a time-limit truncation is never terminal. Real transitions keep the
 Named in a config as ``replay_buffer_class: TerminatingHerReplayBuffer`` (with
 ``copy_info_dict: true``, which ``compute_terminated`` needs as ``compute_reward`` does).
 
-It builds the relabelled batch itself, for wheelgym's envs: the step info's keys that the
-env's ``compute_reward`` and ``compute_terminated`` read (``tasks.HER_INFO_KEYS``) are kept in
-arrays as each transition is added, and a batch's rows of them are passed to both, where SB3's
-buffer deep-copies every stored info dict of the batch (a quarter of a 64x64 SAC+HER
-training's time here); the rewards are the same bits.
+It builds the relabelled batch itself, for wheelgym's envs: the stored infos' keys that the
+env's ``compute_reward`` and ``compute_terminated`` read (``tasks.HER_INFO_KEYS``) are gathered
+once into arrays and passed to both, where SB3's buffer deep-copies every stored info dict of
+the batch first (a quarter of a 64x64 SAC+HER training's time here); the rewards are the same
+bits.
 
 ``relabel_observation=True`` (a ``replay_buffer_kwargs`` key) also rewrites the goal's entries
 of each relabelled transition's ``observation`` (the goal in the body frame: ``goal_x_b``,
@@ -59,23 +59,10 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
             raise ValueError("TerminatingHerReplayBuffer needs replay_buffer_kwargs "
                              "copy_info_dict=True (compute_terminated reads the step info)")
         self.relabel_observation = bool(relabel_observation)
-        # the HER_INFO_KEYS of every stored transition, as arrays (add, _get_virtual_samples)
-        shape = (self.buffer_size, self.n_envs)
-        self._her_info = (np.zeros((*shape, *self.obs_shape["desired_goal"])), np.zeros(shape),
-                          np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool))
         if self.relabel_observation and self.env is not None:  # the env's error, now
             o = np.zeros((1, *self.obs_shape["observation"]), dtype=np.float32)
             g = np.zeros((1, *self.obs_shape["desired_goal"]), dtype=np.float32)
             self.env.env_method("relabel_observation", o, g, g, indices=[0])
-
-    def add(self, obs: dict[str, np.ndarray], next_obs: dict[str, np.ndarray],
-            action: np.ndarray, reward: np.ndarray, done: np.ndarray,
-            infos: list[dict[str, Any]]) -> None:
-        """Store a vector step (``HerReplayBuffer.add``) and its infos' ``HER_INFO_KEYS``."""
-        values = her_info_arrays(infos, (self.n_envs,), self._her_info[0].shape[-1])
-        for store, v in zip(self._her_info, values, strict=True):
-            store[self.pos] = v
-        super().add(obs, next_obs, action, reward, done, infos)
 
     def _get_virtual_samples(self, batch_indices: np.ndarray, env_indices: np.ndarray,
                              env: VecNormalize | None = None) -> DictReplayBufferSamples:
@@ -86,8 +73,9 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
         nxt = {k: v[batch_indices, env_indices] for k, v in self.next_observations.items()}
         goals = self._sample_goals(batch_indices, env_indices)
         obs["desired_goal"] = nxt["desired_goal"] = goals
-        info = {k: v[batch_indices, env_indices]
-                for k, v in zip(HER_INFO_KEYS, self._her_info, strict=True)}
+        rows = self.infos[batch_indices, env_indices]  # the stored step infos, read only
+        info = dict(zip(HER_INFO_KEYS, her_info_arrays(rows, (len(rows),), goals.shape[-1]),
+                        strict=True))
         # r_t depends on s_{t+1}: the next achieved goal against the relabelled goal
         achieved = nxt["achieved_goal"]
         reward = self.env.env_method("compute_reward", achieved, goals, info, indices=[0])[0]

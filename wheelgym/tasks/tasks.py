@@ -443,12 +443,9 @@ def her_info_arrays(info: HerInfo, batch: tuple[int, ...], dim: int
         if len(rows) != int(np.prod(batch, dtype=np.int64)):
             raise ValueError(f"info must hold one dict per goal ({int(np.prod(batch))}), got "
                              f"{len(rows)}")
-        try:
-            vals = [np.array([r[k] for r in rows]) for k in HER_INFO_KEYS]
-        except (KeyError, TypeError, IndexError):  # name what is missing
-            for r in rows:
-                _require_her_keys(r)
-            raise
+        for r in rows:
+            _require_her_keys(r)
+        vals = [np.array([r[k] for r in rows]) for k in HER_INFO_KEYS]
     try:
         prev = vals[0].astype(np.float64).reshape(*batch, dim)
         return (prev, *(v.reshape(batch) for v in vals[1:]))
