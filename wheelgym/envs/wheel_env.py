@@ -301,13 +301,13 @@ a relabelled goal reached mid-episode does not end its transition (the critic bo
 and collects the success bonus again on the next steps near that goal) and a transition that
 ended on its episode's goal stays ended for a goal it did not reach.
 ``wheelgym.agents.her.TerminatingHerReplayBuffer`` (the same arguments) takes each relabelled
-transition's end from ``compute_terminated``; ``configs/ThreeWheel-goal-velocity-her.yml`` uses it.
+transition's end from ``compute_terminated``; both ``configs/*-her.yml`` use it.
 ``relabel_observation(observation, achieved_goal, desired_goal)`` (goal task, batched) is the
 ``observation`` key with the goal's entries recomputed for another goal from the robot's pose
 (``achieved_goal``): what the robot would have observed with that goal. With
 ``replay_buffer_kwargs=dict(..., relabel_observation=True)`` the terminating buffer rewrites
 every relabelled observation so, and the policy keeps the goal in its body frame
-(``goal_free_observation=False``). It raises a ``ValueError`` where the observation holds entries
+(``goal_free_observation=False``; ``configs/Bicycle-goal-VehicleSpeedSteeringAngle-her.yml``). It raises a ``ValueError`` where the observation holds entries
 it cannot recompute: observation history, noise, dropped or stuck entries, and navigate's
 (whose goal space has no yaw and whose bearing entries follow the plan).
 
