@@ -94,7 +94,6 @@ def test_needs_copy_info_dict():
             replay_buffer_kwargs={"copy_info_dict": False})
 
 
-
 def test_trains_on_a_single_env_too():
     """SB3 wraps a single env in its DummyVecEnv, whose env_method reaches compute_terminated
     through Gymnasium's wrappers."""

@@ -307,9 +307,10 @@ transition's end from ``compute_terminated``; both ``configs/*-her.yml`` use it.
 (``achieved_goal``): what the robot would have observed with that goal. With
 ``replay_buffer_kwargs=dict(..., relabel_observation=True)`` the terminating buffer rewrites
 every relabelled observation so, and the policy keeps the goal in its body frame
-(``goal_free_observation=False``; ``configs/Bicycle-goal-VehicleSpeedSteeringAngle-her.yml``). It raises a ``ValueError`` where the observation holds entries
-it cannot recompute: observation history, noise, dropped or stuck entries, and navigate's
-(whose goal space has no yaw and whose bearing entries follow the plan).
+(``goal_free_observation=False``; ``configs/Bicycle-goal-VehicleSpeedSteeringAngle-her.yml``).
+It raises a ``ValueError`` where the observation holds entries it cannot recompute:
+observation history, noise, dropped or stuck entries, and navigate's (whose goal space has no
+yaw and whose bearing entries follow the plan).
 
 ## Copies
 
@@ -348,13 +349,19 @@ def _info_builder(vectors: tuple[str, ...], numbers: tuple[tuple[str, int], ...]
     return scope["build"]
 
 
+def goal_columns(core: WheelCore) -> list[int]:
+    """The columns of the task's ``goal_entries`` among the task's observation entries, in the
+    order of ``goal_entries`` (those the observation has)."""
+    names = list(core.obs_names[:core.task_obs_dim])
+    return [names.index(n) for n in core.task.goal_entries if n in names]
+
+
 def goal_free_columns(core: WheelCore) -> np.ndarray:
     """The observation columns that do not depend on the desired goal (``goal_free_observation``):
     every entry but the task's ``goal_entries``, and their copies in the observation history
     (block ``t`` of the core's layout repeats the ``task_obs_dim`` task entries)."""
     D = core.task_obs_dim
-    goal = [j for j, name in enumerate(core.obs_names[:D]) if name in core.task.goal_entries]
-    drop = {t * D + j for t in range(core.n_obs_history + 1) for j in goal}
+    drop = {t * D + j for t in range(core.n_obs_history + 1) for j in goal_columns(core)}
     return np.array([i for i in range(len(core.obs_names)) if i not in drop], dtype=np.int64)
 
 
@@ -385,13 +392,11 @@ def relabel_observation(core: WheelCore, columns: np.ndarray | None, observation
                          f"{', '.join(reasons)} (they hold past poses or drawn errors); use "
                          "goal_free_observation=True")
     goal = core.task.goal_observation(achieved_goal, desired_goal)
-    names = core.obs_names[:core.task_obs_dim]
-    cols = [names.index(n) for n in core.task.goal_entries]
     out = np.array(observation, dtype=np.float32)
     if out.shape[:-1] != goal.shape[:-1] or out.shape[-1] != len(core.obs_names):
         raise ValueError(f"observation must have shape (..., {len(core.obs_names)}) with the "
                          f"goals' leading shape {goal.shape[:-1]}, got {out.shape}")
-    out[..., cols] = goal
+    out[..., goal_columns(core)] = goal
     return out
 
 
