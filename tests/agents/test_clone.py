@@ -327,3 +327,23 @@ def test_the_true_model_teacher_labels_with_each_rows_true_parameters(perturbed)
     differ = np.abs(labels["true"] - labels["nominal"]).max()
     assert (differ > 1e-3) if perturbed else (differ == 0.0)
     venv.close()
+
+
+def test_the_teachers_kwargs_set_the_baseline_that_labels():
+    """An ``imitate`` stage's ``teacher_kwargs`` reach ``wheelgym.baseline``: the deadbeat gain
+    given explicitly labels as the default teacher does, a softer twist loop otherwise."""
+    cfg = _true_teacher_config(action_mode="torque")
+    venv = wrap_normalize(make_train_env(cfg, seed=0), cfg)
+    venv.training = False
+    from wheelgym.envs.baseline import baseline
+
+    dt = baseline(venv).core.dt
+    labels = {}
+    for name, kw in (("default", None), ("deadbeat", {"twist_gains": {"k_v": 1.0 / dt}}),
+                     ("soft", {"twist_gains": {"k_v": 0.5 / dt}})):
+        venv.seed(3)
+        venv.reset()
+        labels[name] = demonstrate(venv, 2 * 40, teacher_kwargs=kw).actions
+    assert np.array_equal(labels["default"], labels["deadbeat"])
+    assert np.abs(labels["soft"] - labels["default"]).max() > 1e-3
+    venv.close()

@@ -175,6 +175,39 @@ def test_the_legacy_form_is_the_old_file_form_and_keeps_the_digest():
     assert parse_pipeline(data["wheelgym"]["pipeline"], "x", "ppo", ("ppo",))
 
 
+def test_teacher_kwargs_are_checked_for_baseline_teachers_and_digested():
+    """An ``imitate`` stage's ``teacher_kwargs`` (``wheelgym.baseline`` keywords) are checked
+    at load (the stage, the key, the valid keys), refused for the policy as its own teacher,
+    have no flat form and change the recipe's digest."""
+    def cfg(teacher_kwargs, teacher="baseline"):
+        data = tiny_config_flat(clone_baseline=512)
+        data = migrate(data)
+        data["wheelgym"]["pipeline"][0]["teacher"] = teacher
+        if teacher_kwargs is not None:
+            data["wheelgym"]["pipeline"][0]["teacher_kwargs"] = teacher_kwargs
+        return parse_config(data)
+
+    plain = cfg(None)
+    tuned = cfg({"w_cap": 1.0, "twist_gains": {"k_v": 14, "k_i": 20.0}})
+    assert tuned.pipeline[0].teacher_kwargs == {"w_cap": 1.0,
+                                                "twist_gains": {"k_v": 14.0, "k_i": 20.0}}
+    assert legacy_form(tuned.pipeline) is None
+    assert config_digest(tuned) != config_digest(plain)
+    cases = [
+        ({"gain": 1.0}, r"pipeline\[0\] \(imitate\): teacher_kwargs unknown key 'gain'; "
+                        r"valid keys: \['v_cap', 'w_cap', 'twist_gains'\]"),
+        ({"w_cap": -1.0}, r"teacher_kwargs w_cap must be a finite number > 0"),
+        ({"twist_gains": {"k_p": 1.0}}, r"teacher_kwargs twist_gains: .*k_p"),
+        ({"twist_gains": {"k_v": -1.0}}, r"teacher_kwargs twist_gains: must be a finite"),
+        ({}, r"teacher_kwargs must be a non-empty mapping"),
+    ]
+    for kwargs, match in cases:
+        with pytest.raises(ValueError, match=match):
+            cfg(kwargs)
+    with pytest.raises(ValueError, match=r"teacher_kwargs is for the baseline teachers"):
+        cfg({"w_cap": 1.0}, teacher="self_without_internal_force")
+
+
 def test_every_committed_row_keeps_its_config_sha():
     """Nothing is re-run for the respelling: every row of the committed results CSV whose
     config is shipped has the digest of the config file as it is now."""

@@ -175,7 +175,8 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
                 stop: Callable[[], bool] | None = None,
                 actor: Callable[[np.ndarray], np.ndarray] | None = None,
                 internal_force: bool = False, planner: str | None = None,
-                model_kind: str = "nominal") -> Demonstration:
+                model_kind: str = "nominal",
+                teacher_kwargs: dict[str, Any] | None = None) -> Demonstration:
     """Label ``steps`` environment steps of ``venv`` with the analytic baseline's actions.
 
     The baseline drives, or ``actor`` (observations -> actions, e.g. the clone's deterministic
@@ -190,13 +191,15 @@ def demonstrate(venv: Any, steps: int, gamma: float = 0.99,
     step, like the label). Raises ``ValueError`` when the envs have no baseline (or, with
     ``internal_force``, no internal force). ``planner``: the planning baseline's planner
     (``wheelgym.baseline(env, planner=...)``, navigate only) labels instead of the reactive one;
-    ``model_kind`` (``"nominal"`` or ``"true"``): the parameters the baseline computes with.
+    ``model_kind`` (``"nominal"`` or ``"true"``): the parameters the baseline computes with;
+    ``teacher_kwargs``: more keywords of :func:`wheelgym.baseline` (``v_cap``, ``w_cap``,
+    ``twist_gains``).
     """
     from wheelgym.envs.baseline import baseline
 
     try:
         # it finds the env's core under SB3's wrappers
-        policy = baseline(venv, planner=planner, model=model_kind)
+        policy = baseline(venv, planner=planner, model=model_kind, **(teacher_kwargs or {}))
     except (TypeError, ValueError, AttributeError) as e:
         raise ValueError(f"clone_baseline: no analytic baseline for these envs: {e}") from e
     if internal_force:
@@ -345,7 +348,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
                    stop: Callable[[], bool] | None = None, rounds: int = 1,
                    epochs: int | None = None,
                    internal_force: float | None = None, lr: float = LR,
-                   planner: str | None = None, model_kind: str = "nominal") -> dict[str, Any]:
+                   planner: str | None = None, model_kind: str = "nominal",
+                   teacher_kwargs: dict[str, Any] | None = None) -> dict[str, Any]:
     """Fit ``model``'s mean and value network to the baseline on ``model``'s envs.
 
     ``rounds`` splits the ``steps`` labelled rows: the baseline drives the first
@@ -365,7 +369,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     ``lr``: Adam's learning rate of the fits (default :data:`LR`). ``planner``: the planning
     baseline (``wheelgym.baseline(env, planner=planner)``, navigate only) is the teacher;
     ``model_kind``: the parameters the analytic baseline computes with (``"nominal"`` or
-    ``"true"``, :data:`wheelgym.envs.baseline.BASELINE_MODELS`).
+    ``"true"``, :data:`wheelgym.envs.baseline.BASELINE_MODELS`); ``teacher_kwargs``: more
+    keywords of :func:`wheelgym.baseline` (the stage's ``teacher_kwargs``).
 
     ``stop`` (a Ctrl-C request, see :func:`wheelgym.agents.train.train`) ends the demonstration
     or the fit early; the figures then say ``interrupted: True`` and cover what was done.
@@ -375,7 +380,7 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
     per = max(1, steps // rounds)
     forces = bool(internal_force)
     demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
-                       planner=planner, model_kind=model_kind)
+                       planner=planner, model_kind=model_kind, teacher_kwargs=teacher_kwargs)
     obs, actions, returns, rows = demo.obs, demo.actions, demo.returns, demo.force_rows
     driver = "planner" if planner else "baseline" + ("" if model_kind == "nominal" else " (true)")
     log = [{"driver": driver, **_episodes(demo)}]
@@ -387,7 +392,8 @@ def clone_baseline(model: Any, steps: int, seed: int = 0,
         if k:  # all rows so far, and the new ones
             demo = demonstrate(venv, per, gamma=gamma, stop=stop, internal_force=forces,
                                actor=lambda o: model.predict(o, deterministic=True)[0],
-                               planner=planner, model_kind=model_kind)
+                               planner=planner, model_kind=model_kind,
+                               teacher_kwargs=teacher_kwargs)
             log.append({"driver": "clone", **_episodes(demo),
                         "mse_on_its_states": mean_error(model, demo.obs, demo.actions)})
             obs = np.concatenate([obs, demo.obs])

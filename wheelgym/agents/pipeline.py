@@ -57,6 +57,7 @@ __all__ = [
     "STAGES",
     "TEACHERS",
     "BASELINE_TEACHERS",
+    "TEACHER_KWARGS",
     "LEGACY_KEYS",
     "Imitate",
     "RL",
@@ -113,6 +114,40 @@ def _teacher(v: Any) -> str:
     if v not in TEACHERS:
         raise ValueError(f"must be one of {list(TEACHERS)}, got {v!r}")
     return v
+
+
+#: The keys of an ``imitate`` stage's ``teacher_kwargs`` (keywords of :func:`wheelgym.baseline`).
+TEACHER_KWARGS: tuple[str, ...] = ("v_cap", "w_cap", "twist_gains")
+
+
+def teacher_kwargs(v: Any) -> dict[str, Any]:
+    """``{v_cap, w_cap, twist_gains: {k_v, k_i}}``: the baseline teacher's settings, passed to
+    :func:`wheelgym.baseline` (its speed and yaw-rate caps, the gains of its twist loop)."""
+    from wheelgym.control.controllers import TwistGains
+
+    if not isinstance(v, Mapping) or not v:
+        raise ValueError(f"must be a non-empty mapping with keys of {list(TEACHER_KWARGS)}, "
+                         f"got {v!r}")
+    out: dict[str, Any] = {}
+    for key, x in v.items():
+        if key not in TEACHER_KWARGS:
+            raise ValueError(f"unknown key {key!r}; valid keys: {list(TEACHER_KWARGS)}")
+        if key != "twist_gains":
+            try:
+                out[key] = _positive(x)
+            except ValueError as e:
+                raise ValueError(f"{key} {e}") from None
+            continue
+        if not isinstance(x, Mapping) or not x:
+            raise ValueError(f"twist_gains must be a mapping with keys of ['k_v', 'k_i'], "
+                             f"got {x!r}")
+        try:
+            gains = {k: _nonneg(g) for k, g in x.items()}
+            TwistGains(**gains)  # its own checks: the field names, k_v > 0
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"twist_gains: {e}") from None
+        out[key] = gains
+    return out
 
 
 def reward_schedule(v: Any) -> dict[str, list[list]] | None:
@@ -182,6 +217,11 @@ class Imitate:
         _nonneg, "number >= 0", "baseline: 0; self: 1000 (`DISTILL_WEIGHT`)",
         "weight of the internal force (null-space part, TW-6) of the action error in the fit; "
         "above 0 only in torque mode on a robot with an internal force (ThreeWheel)")
+    teacher_kwargs: dict | None = _key(
+        teacher_kwargs, "mapping", "none (the baseline's defaults)",
+        "the baseline teacher's settings (`wheelgym.baseline` keywords): `v_cap` (m/s), `w_cap` "
+        "(rad/s), `twist_gains` `{k_v, k_i}` of the twist loop in torque mode (SkidSteer: with "
+        "its integral action); baseline teachers only")
 
     kind: ClassVar[str] = "imitate"
     summary: ClassVar[str] = "fit the policy's mean to a teacher (behaviour cloning, DAgger)"
@@ -257,7 +297,12 @@ def parse_stage(data: Any, index: int, where: str) -> Stage:
     if missing:
         raise ValueError(f"{at}: missing key(s) {missing}; valid keys: "
                          f"{['stage', *sorted(fields)]}")
-    return cls(**values)
+    stage = cls(**values)
+    if isinstance(stage, Imitate) and stage.teacher_kwargs is not None and \
+            stage.teacher not in BASELINE_TEACHERS:
+        raise ValueError(f"{at}: teacher_kwargs is for the baseline teachers "
+                         f"{list(BASELINE_TEACHERS)}, not {stage.teacher!r}")
+    return stage
 
 
 def parse_pipeline(value: Any, where: str, algo: str, on_policy: Sequence[str]) -> tuple:
@@ -361,7 +406,8 @@ def legacy_form(stages: Sequence[Stage]) -> dict[str, Any] | None:
         names = _LEGACY_TEACHER_KEYS.get(s.teacher)
         if names is None:  # a teacher no flat key ever named
             return None
-        if s.teacher in taken or (s.teacher == "baseline") == seen_rl or s.lr is not None:
+        if (s.teacher in taken or (s.teacher == "baseline") == seen_rl or s.lr is not None
+                or s.teacher_kwargs is not None):
             return None
         if s.teacher != "baseline" and s.epochs is not None:
             return None

@@ -401,7 +401,8 @@ def _imitate(config: TrainConfig, stage: Imitate, model, stop: _StopOnSignal) ->
             return clone_baseline(model, stage.steps, seed=config.seed,
                                   stop=lambda: stop.requested, rounds=opts["rounds"],
                                   epochs=opts["epochs"], internal_force=opts["internal_force"],
-                                  lr=opts["lr"], **BASELINE_TEACHERS[stage.teacher])
+                                  lr=opts["lr"], teacher_kwargs=stage.teacher_kwargs,
+                                  **BASELINE_TEACHERS[stage.teacher])
         return distill_internal_force(model, stage.steps, rounds=opts["rounds"],
                                       weight=opts["internal_force"], epochs=opts["epochs"],
                                       seed=config.seed, lr=opts["lr"],

@@ -131,11 +131,23 @@ class BaselinePolicy:
             docs/topics/planning.md); ``planner_kwargs`` go to it.
         model: ``"nominal"`` (the env's built parameters) or ``"true"`` (each row's drawn
             plant parameters); module docstring.
+        twist_gains: the gains of the twist loop that turns goal and navigate commands into
+            torques (torque and voltage modes, ThreeWheel and SkidSteer): a
+            :class:`~wheelgym.control.controllers.TwistGains` or a mapping of its fields
+            (``k_v``, ``k_i``), or None (the deadbeat ``k_v = 1 / ctrl_dt`` without integral
+            action). Given, SkidSteer's integral action ``k_i`` applies (its default
+            ``0.3 / ctrl_dt²``; ``k_i: 0`` for none): one integrator per row, zeroed at the
+            row's reset, advanced by each call of :meth:`actions` (once per env step).
+            A loop for a delayed plant: ``docs/topics/robustness.md``.
+
+    Raises:
+        ValueError: ``model`` or ``twist_gains`` invalid, ``twist_gains`` for a robot without
+            the twist controller, or integral action with ``model="true"``.
     """
 
     def __init__(self, core: WheelCore, v_cap: float = 0.6, w_cap: float = 1.5,
                  planner: str | None = None, planner_kwargs: dict[str, Any] | None = None,
-                 model: str = "nominal") -> None:
+                 model: str = "nominal", twist_gains: Any = None) -> None:
         if model not in BASELINE_MODELS:
             raise ValueError(f"model must be one of {list(BASELINE_MODELS)}, got {model!r}")
         #: ``"nominal"`` or ``"true"``: the parameters the baseline computes with.
@@ -178,8 +190,21 @@ class BaselinePolicy:
             from wheelgym.control.controllers import TrackingController, TwistController
 
             # the env's control period: the deadbeat twist loop and the friction look-ahead
-            self._twist_ctl = TwistController(core.model, ctrl_dt=core.dt)
+            try:
+                self._twist_ctl = TwistController(core.model, gains=twist_gains, ctrl_dt=core.dt)
+            except TypeError as e:
+                raise ValueError(f"twist_gains: {e}") from None
             self._track_ctl = TrackingController(core.model, ctrl_dt=core.dt)
+        elif twist_gains is not None:
+            raise ValueError(f"twist_gains: {spec.name} has no twist controller (ThreeWheel and "
+                             "SkidSteer have)")
+        #: the stateful twist loop (``twist_gains`` with integral action): one integrator a row
+        self._integral = twist_gains is not None and self._twist_ctl.gains.k_i > 0.0
+        if self._integral:
+            if self._true:
+                raise ValueError("twist_gains: the integral action (k_i > 0) is for "
+                                 "model='nominal'; pass k_i: 0 with model='true'")
+            self._twist_ctl.set_rows(core.num)
 
     # ------------------------------------------------------------------ SB3 interface
     def predict(self, observation: Any = None, state: Any = None, episode_start: Any = None,
@@ -193,7 +218,10 @@ class BaselinePolicy:
         return (a[0] if single else a).astype(np.float32), None
 
     def reset(self) -> None:
-        """Forget the car-like robots' plans (they are replanned at the next call)."""
+        """Forget the car-like robots' plans (they are replanned at the next call) and zero
+        the twist loop's integrators (``twist_gains`` with integral action)."""
+        if self._integral:
+            self._twist_ctl.reset_rows(slice(None))
         if self._cars is not None:
             self._car_goal[:] = np.nan
         if self._car_track is not None:
@@ -376,6 +404,9 @@ class BaselinePolicy:
         if self._twist_ctl is not None:
             if self._true:
                 tau, _ = self._twist_ctl.row_torques(c.X, twist, c.P, self._tau_max_rows())
+            elif self._integral:  # rows that have just been reset start a fresh integrator
+                self._twist_ctl.reset_rows(np.flatnonzero(c.steps == 0))
+                tau, _ = self._twist_ctl.step(c.X, twist)
             else:
                 tau, _ = self._twist_ctl.torques(c.X, twist)
         else:  # CasterAGV: proportional twist loop through the wheel torques (no controller)
