@@ -15,11 +15,11 @@ collision); a time-limit truncation is never terminal. Real transitions keep the
 Named in a config as ``replay_buffer_class: TerminatingHerReplayBuffer`` (with
 ``copy_info_dict: true``, which ``compute_terminated`` needs as ``compute_reward`` does).
 
-It builds the relabelled batch itself, for wheelgym's envs: the stored infos' keys that the
-env's ``compute_reward`` and ``compute_terminated`` read (``tasks.HER_INFO_KEYS``) are gathered
-once into arrays and passed to both, where SB3's buffer deep-copies every stored info dict of
-the batch first (a quarter of a 64x64 SAC+HER training's time here); the rewards are the same
-bits.
+It builds the relabelled batch itself, for wheelgym's envs: the step infos' keys that the
+env's ``compute_reward`` and ``compute_terminated`` read (``tasks.HER_INFO_KEYS``) are also
+stored as arrays when a transition is added, and a batch indexes them and passes them to both,
+where SB3's buffer deep-copies every stored info dict of the batch first (a quarter of a 64x64
+SAC+HER training's time here); the rewards are the same bits.
 
 ``relabel_observation=True`` (a ``replay_buffer_kwargs`` key) also rewrites the goal's entries
 of each relabelled transition's ``observation`` (the goal in the body frame: ``goal_x_b``,
@@ -59,10 +59,27 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
             raise ValueError("TerminatingHerReplayBuffer needs replay_buffer_kwargs "
                              "copy_info_dict=True (compute_terminated reads the step info)")
         self.relabel_observation = bool(relabel_observation)
+        #: ``HER_INFO_KEYS`` of each stored transition, ``(buffer_size, n_envs, ...)`` arrays
+        #: allocated at the first ``add`` with the dtypes of its infos' values
+        self.her_info: dict[str, np.ndarray] | None = None
         if self.relabel_observation and self.env is not None:  # the env's error, now
             o = np.zeros((1, *self.obs_shape["observation"]), dtype=np.float32)
             g = np.zeros((1, *self.obs_shape["desired_goal"]), dtype=np.float32)
             self.env.env_method("relabel_observation", o, g, g, indices=[0])
+
+    def add(self, obs: dict[str, np.ndarray], next_obs: dict[str, np.ndarray],
+            action: np.ndarray, reward: np.ndarray, done: np.ndarray,
+            infos: list[dict[str, Any]]) -> None:
+        """SB3's ``add``, and the infos' ``HER_INFO_KEYS`` into :attr:`her_info` at the same
+        position (an info without them raises the ``ValueError`` that says what to set)."""
+        pos, dim = self.pos, int(np.prod(self.obs_shape["desired_goal"]))
+        vals = her_info_arrays(infos, (self.n_envs,), dim)
+        if self.her_info is None:
+            self.her_info = {k: np.zeros((self.buffer_size, *v.shape), dtype=v.dtype)
+                             for k, v in zip(HER_INFO_KEYS, vals, strict=True)}
+        for k, v in zip(HER_INFO_KEYS, vals, strict=True):
+            self.her_info[k][pos] = v
+        super().add(obs, next_obs, action, reward, done, infos)
 
     def _get_virtual_samples(self, batch_indices: np.ndarray, env_indices: np.ndarray,
                              env: VecNormalize | None = None) -> DictReplayBufferSamples:
@@ -73,9 +90,8 @@ class TerminatingHerReplayBuffer(HerReplayBuffer):
         nxt = {k: v[batch_indices, env_indices] for k, v in self.next_observations.items()}
         goals = self._sample_goals(batch_indices, env_indices)
         obs["desired_goal"] = nxt["desired_goal"] = goals
-        rows = self.infos[batch_indices, env_indices]  # the stored step infos, read only
-        info = dict(zip(HER_INFO_KEYS, her_info_arrays(rows, (len(rows),), goals.shape[-1]),
-                        strict=True))
+        assert self.her_info is not None  # (a batch is drawn from added transitions)
+        info = {k: v[batch_indices, env_indices] for k, v in self.her_info.items()}
         # r_t depends on s_{t+1}: the next achieved goal against the relabelled goal
         achieved = nxt["achieved_goal"]
         reward = self.env.env_method("compute_reward", achieved, goals, info, indices=[0])[0]
