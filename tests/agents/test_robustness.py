@@ -70,6 +70,7 @@ def test_cli_robustness(tmp_path, capsys):
     assert rc == 0
     with (tmp_path / "robustness.csv").open() as f:
         rows = list(csv.DictReader(f))
+    assert b"\r" not in (tmp_path / "robustness.csv").read_bytes()  # "\n" ends, as committed
     assert {r["level"] for r in rows} == {"none", "easy", "medium", "hard"}
     assert {r["policy"] for r in rows} == {"baseline-nom", "baseline-true", "random"}
     # the nominal plant: the nominal and the true model agree exactly

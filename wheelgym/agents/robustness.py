@@ -241,7 +241,8 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
     ran = skipped = 0
     t_all = time.perf_counter()
     with csv_path.open("a", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        # "\n" ends, as the committed sweep CSV (csv's default is "\r\n")
+        w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
         if new_file:
             w.writeheader()
             f.flush()
