@@ -2,6 +2,7 @@
 
 import copy
 
+import numba
 import numpy as np
 import pytest
 
@@ -326,3 +327,24 @@ def test_ctrl_dt_is_not_a_gain():
     with pytest.raises(ValueError, match="k_w_max < 2 / ctrl_dt"):
         TrackingController(SkidSteer(), ctrl_dt=0.1)  # k_w_max 24 >= 2 / 0.1
     assert TrackingController(SkidSteer(), ctrl_dt=0.02).ctrl_dt == 0.02
+
+
+@pytest.mark.parametrize("model_cls", [ThreeWheel, SkidSteer])
+def test_read_only_inputs_use_the_envs_kernel_signature(model_cls):
+    """A read-only state (a broadcast view, a frozen array) is passed to the compiled kernel
+    as a writable copy: numba types read-only arrays apart, and would compile the controller
+    a second time for them (the environments pass writable arrays)."""
+    ctl = TwistController(model_cls())
+    kernel = ctl.batch_kernel()[0]
+    x = np.zeros(ctl.model.state_dim)
+    cmd = np.full(ctl.command_dim, 0.1)
+    expected = ctl.torques(x, cmd)
+    for xs, cs in ((x, cmd), (np.broadcast_to(x, (3, x.size)), cmd)):
+        xs, cs = xs.view(), cs.copy()
+        xs.flags.writeable = cs.flags.writeable = False
+        tau, _ = ctl.torques(xs, cs)
+        np.testing.assert_array_equal(tau.reshape(-1, tau.shape[-1])[0], expected[0])
+    ctl.step(np.broadcast_to(x, (2, x.size)), cmd)
+    read_only = [t for sig in kernel.signatures for t in sig
+                 if isinstance(t, numba.types.Array) and not t.mutable]
+    assert kernel.signatures and not read_only, kernel.signatures

@@ -120,3 +120,26 @@ def test_faster_kernel_follows_the_cheaper_kernel():
     for i in range(40):
         fk(i)
     assert fk.best == 1 and log[-1] == "parallel" and fk.interval > 4  # serial backs off
+
+
+def test_threaded_body_calls_the_row_kernel_with_an_int64_index():
+    """numba types a ``prange`` index int64 when it first types a function and uint64 in the
+    threaded loop body; :func:`env_step_body_par` casts it, so the robot's row kernel
+    (CasterAGV and the kinematic robots) compiles once, not twice."""
+    from numba import njit
+
+    from wheelgym.envs.robots.body import env_step_body_par
+
+    @njit
+    def row(i, X, A, LH, P, h, n, Xo, B, F, work):
+        Xo[i, 0] = X[i, 0] + i
+
+    @njit(parallel=True)
+    def par(X, A, LH, P, h, n, Xo, B, F):
+        return env_step_body_par(row, X, A, LH, P, h, n, Xo, B, F)
+
+    X = np.arange(6.0).reshape(3, 2)
+    Xo = np.zeros_like(X)
+    assert par(X, np.zeros((3, 1)), X, X, 0.1, 1, Xo, X.copy(), np.zeros((3, 1), bool))
+    assert (Xo[:, 0] == X[:, 0] + np.arange(3)).all()
+    assert [str(sig[0]) for sig in row.signatures] == ["int64"], row.signatures

@@ -217,7 +217,9 @@ def env_step_body_par(row, X, A, LH, P, h, n, Xo, B, F):  # pragma: no cover - c
         return False
     for i in prange(X.shape[0]):
         work = np.empty((5, X.shape[1]))
-        row(i, X, A, LH, P, h, n, Xo, B, F, work)
+        # int64: numba types the loop index int64 when it first types this function and
+        # uint64 in the threaded loop body, and would compile ``row`` once for each
+        row(np.int64(i), X, A, LH, P, h, n, Xo, B, F, work)
     return True
 
 
