@@ -61,6 +61,7 @@ __all__ = [
     "first_call",
     "llvm_inline",
     "entry_point",
+    "kernel_array",
 ]
 
 #: ``_k_step1(x, u, p, dt, n) -> status``: advance the 1-D state ``x`` in place.
@@ -339,6 +340,16 @@ def rk4_rows(ft, pw, X, U, P, h, n, out, work, b0, nx, m, npar):  # pragma: no c
         for j in range(nx):
             out[b0 + l, j] = S[j, l]
         work[b0 + l] = S[e0, l]
+
+
+def kernel_array(a: Any, dtype: Any = np.float64) -> np.ndarray:
+    """``a`` as a C-contiguous, writable array for a compiled kernel.
+
+    numba types a read-only array (a ``np.broadcast_to`` view, a frozen array) apart from a
+    writable one and compiles a kernel once more for it (seconds for a model's step); the
+    environments pass writable arrays, so a read-only one is copied here."""
+    a = np.ascontiguousarray(a, dtype=dtype)
+    return a if a.flags.writeable else a.copy()
 
 
 @njit(cache=True, inline="always")

@@ -220,3 +220,27 @@ def test_invalid_arguments():
         min_norm(np.zeros((6, 3)), np.ones(3))
     with pytest.raises(ValueError):
         skid_steer_split(np.zeros(3))
+
+
+def test_read_only_inputs_reach_the_kernel_as_writable_arrays():
+    """Broadcast views and frozen arrays give the same torques through the one compiled
+    signature of the writable arrays (numba would compile each kernel again for read-only)."""
+    import numba
+
+    from wheelgym.control import distribution
+
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(6, 3))
+    Q = rng.normal(size=3)
+    T = np.full(6, 2.0)
+    expected = within_limits(J, Q, T)[0]
+    frozen = [a.copy() for a in (J, Q, T)]
+    for a in frozen:
+        a.flags.writeable = False
+    np.testing.assert_array_equal(within_limits(*frozen)[0], expected)
+    got = within_limits(np.broadcast_to(J, (2, 6, 3)), Q, T)[0]
+    np.testing.assert_array_equal(got, [expected, expected])
+    np.testing.assert_array_equal(min_norm(np.broadcast_to(J, (2, 6, 3)), Q)[1], min_norm(J, Q))
+    read_only = [t for sig in distribution._k_distribute.signatures for t in sig
+                 if isinstance(t, numba.types.Array) and not t.mutable]
+    assert distribution._k_distribute.signatures and not read_only

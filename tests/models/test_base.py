@@ -222,3 +222,25 @@ def test_model_n_substeps(model):
         model.n_substeps(0.05, 0.003)
     with pytest.raises(ValueError, match="sim_dt"):
         model.n_substeps(0.05, 0.0)
+
+
+def test_read_only_inputs_step_through_the_writable_signature(model):
+    """Read-only inputs (broadcast views, frozen arrays) reach the kernels as writable copies,
+    with the same result: numba would compile each kernel again for read-only arrays."""
+    import numba
+
+    x = np.zeros((3, 5))
+    x[:, 3:] = 0.2
+    u = np.full(4, 1.5)
+    expected = model.step(x, u, 0.01, 2)
+    frozen_x, frozen_u = x.copy(), u.copy()
+    frozen_x.flags.writeable = frozen_u.flags.writeable = False
+    for xs, us in ((frozen_x, frozen_u), (np.broadcast_to(x[0], (3, 5)), u),
+                   (frozen_x[0], frozen_u)):
+        got = model.step(xs, us, 0.01, 2)
+        np.testing.assert_array_equal(got, expected[: len(got)] if got.ndim == 2 else expected[0])
+        model.derivative(xs, us)
+    for kernel in (type(model)._k_step, type(model)._k_deriv):
+        read_only = [t for sig in kernel.signatures for t in sig
+                     if isinstance(t, numba.types.Array) and not t.mutable]
+        assert not read_only, kernel.signatures

@@ -65,7 +65,7 @@ from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.control import distribution as _distribution
 from wheelgym.control.distribution import DISTRIBUTIONS, _distribute_one
-from wheelgym.integrators import all_finite
+from wheelgym.integrators import all_finite, kernel_array
 from wheelgym.models import elementwise as _elementwise
 from wheelgym.models import friction as _friction
 from wheelgym.models.caster_agv import CasterAGV
@@ -545,7 +545,7 @@ def _k_ca_track_rows(X, Pz, Tw, R, P, T, gains, dt, out, sat):  # pragma: no cov
 
 def _check_rows(P: Any, T: Any, n: int, n_p: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """``P (n, n_p)`` and ``T (n, m)`` as C-contiguous float64 arrays (``ValueError``)."""
-    P, T = _kernel_arg(P), _kernel_arg(T)
+    P, T = kernel_array(P), kernel_array(T)
     if P.shape != (n, n_p):
         raise ValueError(f"params must have shape ({n}, {n_p}) (one packed row per state), "
                          f"got {P.shape}")
@@ -565,7 +565,8 @@ def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
 
 def _is_vec(a: Any, n: int) -> bool:
     """A C-contiguous, writable float64 array of shape (n,) (eligible for the single-state
-    fast path; :func:`_kernel_arg` says why writable)."""
+    fast path; :func:`wheelgym.integrators.kernel_array` says why
+    writable)."""
     return (type(a) is np.ndarray and a.shape == (n,) and a.dtype == np.float64
             and a.flags.c_contiguous and a.flags.writeable)
 
@@ -589,17 +590,9 @@ def _batch(a: Any, width: int, name: str) -> np.ndarray:
     return arr
 
 
-def _kernel_arg(a: Any) -> np.ndarray:
-    """``a`` as a C-contiguous, writable float64 array: numba types a read-only array apart
-    from a writable one, and would compile a kernel a second time for it (a broadcast view, a
-    user's read-only state); the environments pass writable arrays."""
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    return a if a.flags.writeable else a.copy()
-
-
 def _flat(arrays: list[np.ndarray]) -> tuple[list[np.ndarray], tuple[int, ...]]:
     lead = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
-    out = [_kernel_arg(np.broadcast_to(a, lead + a.shape[-1:]).reshape(-1, a.shape[-1]))
+    out = [kernel_array(np.broadcast_to(a, lead + a.shape[-1:]).reshape(-1, a.shape[-1]))
            for a in arrays]
     return out, lead
 
@@ -849,8 +842,8 @@ class TwistController(_Controller):
         """Stateless :meth:`torques` of a batch ``x (n, nx)``, ``twist_cmd (n, k)`` with each
         row's own packed parameters ``params (n, n_p)`` and torque limits ``tau_max (n, m)``
         (:meth:`row_kernel`)."""
-        X = _kernel_arg(_batch(x, self.model.state_dim, "x"))
-        C = _kernel_arg(_batch(twist_cmd, self.command_dim, "twist_cmd"))
+        X = kernel_array(_batch(x, self.model.state_dim, "x"))
+        C = kernel_array(_batch(twist_cmd, self.command_dim, "twist_cmd"))
         if X.ndim != 2 or C.shape[0] != X.shape[0]:
             raise ValueError(f"x and twist_cmd must be batches (n, ...) of one n, got "
                              f"{X.shape} and {C.shape}")
@@ -998,8 +991,8 @@ class TrackingController(_Controller):
                     params: Any, tau_max: Any) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`torques` of a batch ``(n, ...)`` with each row's own packed parameters
         ``params (n, n_p)`` and torque limits ``tau_max (n, m)``."""
-        X = _kernel_arg(_batch(x, self.model.state_dim, "x"))
-        refs = [_kernel_arg(_batch(a, 3, name)) for a, name in
+        X = kernel_array(_batch(x, self.model.state_dim, "x"))
+        refs = [kernel_array(_batch(a, 3, name)) for a, name in
                 ((ref_pose, "ref_pose"), (ref_twist, "ref_twist"),
                  (ref_twist_rate, "ref_twist_rate"))]
         if X.ndim != 2 or any(r.shape != (X.shape[0], 3) for r in refs):

@@ -45,6 +45,7 @@ from numba import njit
 
 from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
+from wheelgym.integrators import kernel_array
 from wheelgym.models.kernels import three_wheel as _tw
 from wheelgym.models.kernels.three_wheel import solve3
 
@@ -453,15 +454,15 @@ def _fast(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, int] | N
     """The compiled single-configuration path, or None when the inputs need the general one."""
     if not (type(J) is np.ndarray and type(Q) is np.ndarray and J.ndim == 2 and Q.ndim == 1
             and J.dtype == np.float64 and Q.dtype == np.float64 and J.flags.c_contiguous
-            and Q.flags.c_contiguous):
-        return None
+            and Q.flags.c_contiguous and J.flags.writeable and Q.flags.writeable):
+        return None  # (read-only arrays: numba would compile the kernel again for them)
     m = J.shape[0]
     if tau_max is None:
         T = _ONES.get(m)
         if T is None:
             T = _ONES.setdefault(m, np.ones(m))
     elif (type(tau_max) is np.ndarray and tau_max.shape == (m,) and tau_max.dtype == np.float64
-          and tau_max.flags.c_contiguous):
+          and tau_max.flags.c_contiguous and tau_max.flags.writeable):
         T = tau_max
     else:
         return None
@@ -585,8 +586,8 @@ def _check_JQ(J: Any, Q: Any, check_finite: bool = True
     if check_finite and not (np.all(np.isfinite(J)) and np.all(np.isfinite(Q))):
         raise ValueError("J and Q must be finite")
     lead = np.broadcast_shapes(J.shape[:-2], Q.shape[:-1])
-    J2 = np.ascontiguousarray(np.broadcast_to(J, lead + (m, k)).reshape(-1, m, k))
-    Q2 = np.ascontiguousarray(np.broadcast_to(Q, lead + (k,)).reshape(-1, k))
+    J2 = kernel_array(np.broadcast_to(J, lead + (m, k)).reshape(-1, m, k))
+    Q2 = kernel_array(np.broadcast_to(Q, lead + (k,)).reshape(-1, k))
     return J2, Q2, lead
 
 
@@ -598,7 +599,7 @@ def _check_tmax(tau_max: Any, m: int, lead: tuple[int, ...]) -> np.ndarray:
         raise ValueError(f"tau_max must be a scalar or have shape (..., {m}), got {T.shape}")
     if not np.all(np.isfinite(T)) or np.any(T <= 0):
         raise ValueError("tau_max must be positive and finite")
-    return np.ascontiguousarray(np.broadcast_to(T, lead + (m,)).reshape(-1, m))
+    return kernel_array(np.broadcast_to(T, lead + (m,)).reshape(-1, m))
 
 
 def _run(J: Any, Q: Any, tau_max: Any, mode: int) -> tuple[np.ndarray, np.ndarray]:
@@ -713,9 +714,9 @@ def internal_force(J: Any, tau: Any) -> np.ndarray:
     if tau.shape[-1:] != (m,):
         raise ValueError(f"tau must have shape (..., {m}), got {tau.shape}")
     lead = np.broadcast_shapes(j_lead, tau.shape[:-1])
-    J3 = np.ascontiguousarray(np.broadcast_to(J2.reshape(j_lead + (m, 3)), lead + (m, 3))
-                              .reshape(-1, m, 3))
-    T = np.ascontiguousarray(np.broadcast_to(tau, lead + (m,)).reshape(-1, m))
+    J3 = kernel_array(np.broadcast_to(J2.reshape(j_lead + (m, 3)), lead + (m, 3))
+                      .reshape(-1, m, 3))
+    T = kernel_array(np.broadcast_to(tau, lead + (m,)).reshape(-1, m))
     out = np.empty_like(T)
     _k_internal(J3, T, out)
     if not np.all(np.isfinite(out)):

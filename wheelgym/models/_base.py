@@ -298,8 +298,8 @@ class Model:
             X = np.broadcast_to(X, lead + X.shape[-1:])
             U = np.broadcast_to(U, lead + U.shape[-1:])
         lead = X.shape[:-1]
-        X2 = np.ascontiguousarray(X.reshape(-1, self.state_dim))
-        U2 = np.ascontiguousarray(U.reshape(-1, self.input_dim))
+        X2 = _itg.kernel_array(X.reshape(-1, self.state_dim))
+        U2 = _itg.kernel_array(U.reshape(-1, self.input_dim))
         return X2, U2, lead
 
     def _raise_status(self, status: int, method: str, x: Any, u: Any, dt: Any = None) -> None:
@@ -401,6 +401,8 @@ class Model:
                 and u.shape[0] == len(self.input_names)
                 and x.flags.c_contiguous
                 and u.flags.c_contiguous
+                and x.flags.writeable  # read-only arrays: a kernel signature of their own
+                and u.flags.writeable
             ):
                 # A model without ``_k_step1``: its serial batch kernel on a (1, n) view.
                 out = np.empty((1, self._nx))

@@ -54,6 +54,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from wheelgym.integrators import kernel_array
 from wheelgym.models._base import (
     COEFFICIENT,
     DAMPING,
@@ -323,8 +324,8 @@ class CasterAGV(MotorMixin, Model):
         s = self._sigma(sigma)
         V = self._as_batch(u, 2, "u")
         lead = np.broadcast_shapes(s.shape, V.shape[:-1])
-        S = np.ascontiguousarray(np.broadcast_to(s, lead).reshape(-1))
-        V2 = np.ascontiguousarray(np.broadcast_to(V, lead + (2,)).reshape(-1, 2))
+        S = kernel_array(np.broadcast_to(s, lead).reshape(-1))
+        V2 = kernel_array(np.broadcast_to(V, lead + (2,)).reshape(-1, 2))
         bias = np.empty_like(V2)
         fric = np.empty_like(V2)
         _kern.k_twist_pieces(S, V2, self._p, bias, fric)

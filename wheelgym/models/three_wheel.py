@@ -27,6 +27,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from wheelgym.integrators import kernel_array
 from wheelgym.models._base import (
     COEFFICIENT,
     DAMPING,
@@ -335,8 +336,8 @@ class ThreeWheel(MotorMixin, Model):
         P = self._finite(psi, 3, "psi")
         V = self._finite(u, 3, "u")
         lead = np.broadcast_shapes(P.shape[:-1], V.shape[:-1])
-        P2 = np.ascontiguousarray(np.broadcast_to(P, lead + (3,)).reshape(-1, 3))
-        V2 = np.ascontiguousarray(np.broadcast_to(V, lead + (3,)).reshape(-1, 3))
+        P2 = kernel_array(np.broadcast_to(P, lead + (3,)).reshape(-1, 3))
+        V2 = kernel_array(np.broadcast_to(V, lead + (3,)).reshape(-1, 3))
         bias = np.empty_like(P2)
         fric = np.empty_like(P2)
         _kern.k_twist_pieces(P2, V2, self._p, bias, fric)
