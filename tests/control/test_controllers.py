@@ -2,10 +2,10 @@
 
 import copy
 
-import numba
 import numpy as np
 import pytest
 
+from tests.kernel_signatures import read_only_arrays
 from wheelgym.control import (
     TrackingController,
     TwistController,
@@ -345,6 +345,4 @@ def test_read_only_inputs_use_the_envs_kernel_signature(model_cls):
         tau, _ = ctl.torques(xs, cs)
         np.testing.assert_array_equal(tau.reshape(-1, tau.shape[-1])[0], expected[0])
     ctl.step(np.broadcast_to(x, (2, x.size)), cmd)
-    read_only = [t for sig in kernel.signatures for t in sig
-                 if isinstance(t, numba.types.Array) and not t.mutable]
-    assert kernel.signatures and not read_only, kernel.signatures
+    assert kernel.signatures and not read_only_arrays(kernel), kernel.signatures

@@ -225,8 +225,7 @@ def test_invalid_arguments():
 def test_read_only_inputs_reach_the_kernel_as_writable_arrays():
     """Broadcast views and frozen arrays give the same torques through the one compiled
     signature of the writable arrays (numba would compile each kernel again for read-only)."""
-    import numba
-
+    from tests.kernel_signatures import read_only_arrays
     from wheelgym.control import distribution
 
     rng = np.random.default_rng(4)
@@ -241,6 +240,5 @@ def test_read_only_inputs_reach_the_kernel_as_writable_arrays():
     got = within_limits(np.broadcast_to(J, (2, 6, 3)), Q, T)[0]
     np.testing.assert_array_equal(got, [expected, expected])
     np.testing.assert_array_equal(min_norm(np.broadcast_to(J, (2, 6, 3)), Q)[1], min_norm(J, Q))
-    read_only = [t for sig in distribution._k_distribute.signatures for t in sig
-                 if isinstance(t, numba.types.Array) and not t.mutable]
-    assert distribution._k_distribute.signatures and not read_only
+    kernel = distribution._k_distribute
+    assert kernel.signatures and not read_only_arrays(kernel), kernel.signatures

@@ -565,8 +565,7 @@ def _k_tw_inverse(X, UD, UF, p, J, Q):  # pragma: no cover - compiled
 
 def _is_vec(a: Any, n: int) -> bool:
     """A C-contiguous, writable float64 array of shape (n,) (eligible for the single-state
-    fast path; :func:`wheelgym.integrators.kernel_array` says why
-    writable)."""
+    fast path; :func:`wheelgym.integrators.kernel_array` says why writable)."""
     return (type(a) is np.ndarray and a.shape == (n,) and a.dtype == np.float64
             and a.flags.c_contiguous and a.flags.writeable)
 
