@@ -3,6 +3,9 @@
 Run: ``python benchmarks/coldstart.py [--quick] [--robots ...] [--tasks ...] [--modes ...]
 [--motor all|ideal|dc] [--rev REV]
 [--kernels] [--json FILE]`` (``--rev worktree``: the working tree's files instead).
+``--twice [PYTEST_ARG ...]``: instead, the warm-up's jobs (or pytest with those arguments) in
+one process on a fresh copy, its CPU seconds and every dispatcher compiled for more than one
+signature (a read-only array, another layout or index type each compile a kernel again).
 
 For every robot x action mode x task (and ``motor="dc"`` and the voltage mode where the robot
 has DC motors) it extracts a fresh copy of the package at ``REV`` (``git archive REV wheelgym |
@@ -112,6 +115,72 @@ def _run_child(pkg: Path, kw: dict) -> dict:
     return res
 
 
+# The child of ``--twice``: the warm-up's jobs (or pytest on given paths) on the fresh copy in
+# one process, each top-level compile recorded with its signature and its exclusive CPU time.
+TWICE_CHILD = r"""
+import collections, json, sys, time
+import numba.core.event as ev
+stack, done = [], []
+class Rec(ev.Listener):
+    def on_start(self, e):
+        d = e.data["dispatcher"]
+        name = f"{d.py_func.__module__}.{d.py_func.__qualname__}"
+        stack.append([name, str(e.data.get("args")), time.process_time(), 0.0])
+    def on_end(self, e):
+        name, sig, t, inner = stack.pop()
+        incl = time.process_time() - t
+        if stack:
+            stack[-1][3] += incl
+        done.append((name, sig, incl - inner))
+ev.register("numba:compile", Rec())
+sys.path.insert(0, sys.argv[2])  # the fresh copy before the checkout (the cwd of pytest's run)
+import wheelgym  # imported now: the tests then use the fresh copy's modules
+args = json.loads(sys.argv[1])
+jobs = {}
+t0 = time.process_time()
+if args:
+    import pytest
+    rc = pytest.main(["-q", "-p", "no:cacheprovider", "-p", "no:randomly", *args])
+    jobs["pytest exit code " + str(int(rc))] = 0.0  # (the checkout's tests on another rev)
+else:
+    from wheelgym.warmup import warm_jobs, warm_one
+    for job in warm_jobs():
+        t = time.process_time()
+        warm_one(job)
+        jobs[" ".join(j for j in job if j)] = time.process_time() - t
+print(json.dumps({"cpu_s": time.process_time() - t0, "jobs": jobs, "compiles": done}))
+"""
+
+
+def compiled_twice(rev: str | None, pytest_args: list[str]) -> dict:
+    """On a fresh copy of ``rev`` (None: the working tree), the warm-up's jobs (or pytest on
+    ``pytest_args``, run from the checkout) in one process: its CPU seconds, each job's, and
+    every wheelgym dispatcher compiled for more than one signature, with each signature's
+    exclusive CPU seconds (numba's compile events; a read-only array, an ``'A'`` layout or a
+    ``uint64`` index is a signature of its own)."""
+    tmp = Path(tempfile.mkdtemp(prefix="wheelgym-twice-"))
+    try:
+        fresh_copy(tmp, rev)
+        env = dict(os.environ)
+        env.pop("NUMBA_CACHE_DIR", None)
+        env["PYTHONPATH"] = str(tmp)
+        proc = subprocess.run([sys.executable, "-c", TWICE_CHILD, json.dumps(pytest_args),
+                               str(tmp)],
+                              cwd=REPO if pytest_args else tmp, env=env, capture_output=True,
+                              text=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"the child failed:\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}")
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    sigs: dict[str, list[tuple[str, float]]] = {}
+    for name, sig, s in res["compiles"]:
+        if name.startswith("wheelgym."):
+            sigs.setdefault(name, []).append((sig, s))
+    res["twice"] = {k: v for k, v in sigs.items() if len(v) > 1}
+    return res
+
+
 def fresh_copy(dest: Path, rev: str | None) -> None:
     """The package without any numba cache into ``dest``: ``git archive rev wheelgym``, or
     (``rev`` None) the working tree's ``wheelgym/`` without its ``__pycache__`` folders."""
@@ -184,8 +253,22 @@ def main(argv: list[str] | None = None) -> int:
                     help="git revision to copy (default HEAD); 'worktree': the working tree")
     ap.add_argument("--kernels", action="store_true", help="each combination's top compiles")
     ap.add_argument("--json", default=None, help="write the rows as JSON")
+    ap.add_argument("--twice", nargs="*", default=None, metavar="PYTEST_ARG",
+                    help="instead: the warm-up's jobs (or pytest with these arguments) in one "
+                         "process on a fresh copy; its CPU seconds and the dispatchers "
+                         "compiled for more than one signature")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(REPO))
+    if args.twice is not None:
+        res = compiled_twice(None if args.rev == "worktree" else args.rev, args.twice)
+        for job, cpu in res["jobs"].items():
+            print(f"{job}: {cpu:.1f} s CPU")
+        print(f"total: {res['cpu_s']:.1f} s CPU, {len(res['compiles'])} compiles")
+        print("\n| dispatcher | signature | exclusive CPU s |\n|---|---|---:|")
+        for name, compiles in sorted(res["twice"].items()):
+            for sig, cpu in compiles:
+                print(f"| {name} | `{sig}` | {cpu:.2f} |")
+        return 0
     from wheelgym.envs.robots import available_robots
 
     robots = args.robots or available_robots()
