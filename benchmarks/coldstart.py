@@ -143,11 +143,13 @@ if args:
     rc = pytest.main(["-q", "-p", "no:cacheprovider", "-p", "no:randomly", *args])
     jobs["pytest exit code " + str(int(rc))] = 0.0  # (the checkout's tests on another rev)
 else:
-    from wheelgym.warmup import warm_jobs, warm_one
-    for job in warm_jobs():
+    from wheelgym import warmup
+    for job in warmup.warm_jobs():
         t = time.process_time()
-        warm_one(job)
-        jobs[" ".join(j for j in job if j)] = time.process_time() - t
+        warmup.warm_one(job)
+        name = warmup.job_name(job) if hasattr(warmup, "job_name") else " ".join(
+            j for j in job if j)  # (a revision before the kinematic robots' one job)
+        jobs[name] = time.process_time() - t
 print(json.dumps({"cpu_s": time.process_time() - t0, "jobs": jobs, "compiles": done}))
 """
 

@@ -44,8 +44,10 @@ def test_warmup_jobs_cover_every_kernel_once() -> None:
     from wheelgym.warmup import _combos, warm_jobs, warm_one
 
     jobs = warm_jobs()
-    combos = [(job[0], tuple(sorted(kw.items()))) for job in jobs for kw in _combos(job)]
+    combos = [(robot, tuple(sorted(kw.items()))) for job in jobs for robot, kw in _combos(job)]
     assert len(set(combos)) == len(combos)  # each combination in one job only
+    kinematic = [r for r in available_robots() if get_spec(r).kinematic]
+    assert [job for job in jobs if job[1] is None] == [(tuple(kinematic), None)]  # one job
     for robot in available_robots():
         spec = get_spec(robot)
         expect = {(("action_mode", m),) for m in spec.action_modes}
@@ -53,8 +55,8 @@ def test_warmup_jobs_cover_every_kernel_once() -> None:
             expect |= {(("action_mode", "voltage"),)}
             expect |= {(("action_mode", m), ("motor", "dc")) for m in spec.action_modes}
         assert {c for r, c in combos if r == robot} == expect, robot
-    assert set(jobs) - set(warm_jobs(("ThreeWheel",))) == {("ThreeWheel", "dc")}
+    assert set(jobs) - set(warm_jobs(("ThreeWheel",))) == {(("ThreeWheel",), "dc")}
     with pytest.raises(ValueError, match="unknown robots.*valid"):
         warm_jobs(("Tricycle",))
-    job, seconds = warm_one(("Unicycle", None))
-    assert job == ("Unicycle", None) and seconds >= 0.0
+    job, seconds = warm_one((("Unicycle",), None))
+    assert job == (("Unicycle",), None) and seconds >= 0.0

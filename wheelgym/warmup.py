@@ -25,50 +25,61 @@ from wheelgym.envs.robots.body import PAR_MIN_ROWS
 from wheelgym.models import PARALLEL_MIN_BATCH
 from wheelgym.registration import env_id
 
-#: (robot, motor family): ``"ideal"`` (the robot's action modes with ideal motors), ``"dc"``
-#: (the voltage mode and the modes with ``motor="dc"``), or ``None`` (kinematic robots).
-Job = tuple[str, "str | None"]
+#: (robots, motor family): one dynamic robot with ``"ideal"`` (its action modes with ideal
+#: motors) or ``"dc"`` (the voltage mode and the modes with ``motor="dc"``), or every kinematic
+#: robot with ``None`` (they step through one set of kernels).
+Job = tuple[tuple[str, ...], "str | None"]
 
 
 def warm_jobs(skip_dc: tuple[str, ...] = ()) -> list[Job]:
     """The jobs, costliest first; no ``"dc"`` job for the robots in ``skip_dc``.
 
     A job holds the combinations that share compiled kernels (a robot's torque and velocity
-    modes step through one kernel), so that no two processes compile the same kernel.
+    modes step through one kernel; the kinematic robots share theirs), so that no two processes
+    compile the same kernel.
     """
     unknown = [r for r in skip_dc if r not in available_robots()]
     if unknown:
         raise ValueError(f"skip_dc: unknown robots {unknown}; valid: {available_robots()}")
     cost = {"ThreeWheel": 0, "SkidSteer": 1, "CasterAGV": 2}  # measured: 60 / 27 / 22 s CPU
     jobs: list[Job] = []
+    kinematic: list[str] = []
     for robot in sorted(available_robots(), key=lambda r: cost.get(r, 3)):
         spec = get_spec(robot)
         if spec.kinematic:
-            jobs.append((robot, None))
+            kinematic.append(robot)
             continue
         if spec.has_dc_motors and robot not in skip_dc:
-            jobs.append((robot, "dc"))
-        jobs.append((robot, "ideal"))
+            jobs.append(((robot,), "dc"))
+        jobs.append(((robot,), "ideal"))
+    if kinematic:
+        jobs.append((tuple(kinematic), None))
     return jobs
 
 
-def _combos(job: Job) -> list[dict[str, str]]:
-    """The ``gym.make`` keywords of a job's combinations (without the task)."""
-    spec = get_spec(job[0])
-    if job[1] == "dc":
-        return [*({"action_mode": m} for m in spec.dc_action_modes),
-                *({"action_mode": m, "motor": "dc"} for m in spec.action_modes)]
-    return [{"action_mode": m} for m in spec.action_modes]
+def _combos(job: Job) -> list[tuple[str, dict[str, str]]]:
+    """Each robot of a job with the ``gym.make`` keywords of one combination (without the
+    task)."""
+    robots, family = job
+    out: list[tuple[str, dict[str, str]]] = []
+    for robot in robots:
+        spec = get_spec(robot)
+        if family == "dc":
+            out += [(robot, {"action_mode": m}) for m in spec.dc_action_modes]
+            out += [(robot, {"action_mode": m, "motor": "dc"}) for m in spec.action_modes]
+        else:
+            out += [(robot, {"action_mode": m}) for m in spec.action_modes]
+    return out
 
 
 def warm_one(job: Job) -> tuple[Job, float]:
-    """Step the robot's model (ideal motors), and build, reset and step the single and vector
+    """Step the robots' models (ideal motors), and build, reset and step the single and vector
     envs of ``job``'s combinations (every task; a batch above the threaded kernels' threshold
     too) and their baselines; returns the job and the seconds."""
     t0 = time.perf_counter()
-    robot, family = job
-    spec = get_spec(robot)
-    if family != "dc":  # the model's own kernels: one state, a batch, a threaded batch
+    robots, family = job
+    for robot in robots if family != "dc" else ():  # a model's own kernels: one state, a
+        spec = get_spec(robot)                       # batch, a threaded batch
         model = spec.model_cls(None, input_mode=spec.action_modes[0]) if spec.kinematic \
             else spec.model_cls()
         for lead in ((), (3,), (PARALLEL_MIN_BATCH,)):
@@ -76,7 +87,7 @@ def warm_one(job: Job) -> tuple[Job, float]:
             u = np.zeros(lead + (model.input_dim,))
             model.derivative(x, u)
             model.step(x, u, 0.01, 2)
-    for kw in _combos(job):
+    for robot, kw in _combos(job):
         for task in ("goal", "track", "navigate"):
             env = gym.make(env_id(robot), task=task, **kw)
             obs, _ = env.reset(seed=0)
@@ -95,15 +106,22 @@ def warm_one(job: Job) -> tuple[Job, float]:
     return job, time.perf_counter() - t0
 
 
+def job_name(job: Job) -> str:
+    """``"SkidSteer dc"``, ``"ThreeWheel ideal"``, ``"kinematic (DiffDrive, ...)"``."""
+    robots, family = job
+    if family is None:
+        return f"kinematic ({', '.join(robots)})"
+    return f"{robots[0]} {family}"
+
+
 def warm(processes: int = 2, skip_dc: tuple[str, ...] = ()) -> None:
     """Compile (or load) the environment kernels of :func:`warm_jobs` into the disk cache,
     ``processes`` at a time, each in one process only; prints each job's seconds."""
     t0 = time.perf_counter()
     jobs = warm_jobs(skip_dc)
     with mp.get_context("spawn").Pool(processes, maxtasksperchild=None) as pool:
-        for (robot, family), s in pool.imap_unordered(warm_one, jobs):
-            print(f"numba cache: {robot}{'' if family is None else ' ' + family} {s:.1f} s",
-                  flush=True)
+        for job, s in pool.imap_unordered(warm_one, jobs):
+            print(f"numba cache: {job_name(job)} {s:.1f} s", flush=True)
     print(f"numba cache: {len(jobs)} jobs in {time.perf_counter() - t0:.1f} s", flush=True)
 
 
