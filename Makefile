@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
-UVPIP  := $(PY) -m uv pip install --quiet --python $(PY) --compile-bytecode
+UVPIP  := $(PY) -m uv pip install --quiet --native-tls --python $(PY) --compile-bytecode
 STAMP  := $(VENV)/.installed
 
 .PHONY: run test test-slow lint bench validate docs docs-check clean-venv wheel-smoke
@@ -15,9 +15,9 @@ $(STAMP): pyproject.toml setup.py
 	$(PIP) install --quiet --upgrade pip
 	# The CPU build of torch first (an unpinned torch would pull a multi-GB CUDA build), and uv,
 	# which installs the rest with parallel downloads and byte-compiling: 22 s instead of pip's
-	# 58 s (docs/topics/performance.md).
+	# 58 s (docs/topics/performance.md); pip if uv fails.
 	$(PIP) install --quiet "torch==2.13.0" uv
-	$(UVPIP) -e ".[train,dev,cluster,clients,onnx]"
+	$(UVPIP) -e ".[train,dev,cluster,clients,onnx]" || $(PIP) install --quiet -e ".[train,dev,cluster,clients,onnx]"
 	touch $(STAMP)
 
 run: $(STAMP)
@@ -50,7 +50,7 @@ wheel-smoke: $(STAMP)
 # every built page in headless Chromium (Debian's chromium package, /usr/bin/chromium).
 DOCS_STAMP := $(VENV)/.installed-docs
 $(DOCS_STAMP): $(STAMP)
-	$(UVPIP) -e ".[docs]"
+	$(UVPIP) -e ".[docs]" || $(PIP) install --quiet -e ".[docs]"
 	touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP)
