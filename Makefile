@@ -25,9 +25,10 @@ run: $(STAMP)
 
 # The kernels are compiled into numba's disk cache first, each in one of two processes: left
 # to the two test workers, both would compile the costliest ones at the same time. ThreeWheel's
-# DC kernels are only used by the slow tests (docs/topics/performance.md has the compile costs).
+# DC kernels and the threaded DC kernels (256 robots and more) are not used by the default tests
+# (docs/topics/performance.md has the compile costs).
 test: $(STAMP)
-	$(PY) -m wheelgym.warmup --processes 2 --skip-dc ThreeWheel
+	$(PY) -m wheelgym.warmup --processes 2 --skip-dc ThreeWheel --skip-threaded-dc
 	$(PY) -m pytest -q -n 2 --dist loadgroup
 
 test-slow: $(STAMP)

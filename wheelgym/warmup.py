@@ -4,10 +4,11 @@ A fresh checkout compiles each kernel on first use. Two processes that need the 
 once (the test workers of ``pytest -n 2``) both compile it; the costliest take minutes. Run
 before them, :func:`warm` compiles each kernel in one process only::
 
-    python -m wheelgym.warmup --processes 2 --skip-dc ThreeWheel
+    python -m wheelgym.warmup --processes 2 --skip-dc ThreeWheel --skip-threaded-dc
 
-(``make test`` does; ThreeWheel's DC-motor kernels serve only the slow tests.) A warm cache is
-loaded in seconds. :mod:`wheelgym._numba_cache` keeps the cache consistent with the sources.
+(``make test`` does; ThreeWheel's DC-motor kernels and the threaded DC-motor kernels, used from
+``PAR_MIN_ROWS`` robots, are not used by its tests.) A warm cache is loaded in seconds.
+:mod:`wheelgym._numba_cache` keeps the cache consistent with the sources.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing as mp
 import time
+from functools import partial
 
 import gymnasium as gym
 import numpy as np
@@ -72,10 +74,11 @@ def _combos(job: Job) -> list[tuple[str, dict[str, str]]]:
     return out
 
 
-def warm_one(job: Job) -> tuple[Job, float]:
+def warm_one(job: Job, threaded_dc: bool = True) -> tuple[Job, float]:
     """Step the robots' models (ideal motors), and build, reset and step the single and vector
     envs of ``job``'s combinations (every task; a batch above the threaded kernels' threshold
-    too) and their baselines; returns the job and the seconds."""
+    too, for a ``"dc"`` job only with ``threaded_dc``) and their baselines; returns the job and
+    the seconds."""
     t0 = time.perf_counter()
     robots, family = job
     for robot in robots if family != "dc" else ():  # a model's own kernels: one state, a
@@ -97,7 +100,7 @@ def warm_one(job: Job) -> tuple[Job, float]:
             except ValueError:  # no baseline for this combination
                 pass
             env.close()
-            for n in (2, PAR_MIN_ROWS + 1):
+            for n in (2, PAR_MIN_ROWS + 1) if threaded_dc or family != "dc" else (2,):
                 venv = gym.make_vec(env_id(robot), num_envs=n,
                                     vectorization_mode="vector_entry_point", task=task, **kw)
                 venv.reset(seed=0)
@@ -114,13 +117,13 @@ def job_name(job: Job) -> str:
     return f"{robots[0]} {family}"
 
 
-def warm(processes: int = 2, skip_dc: tuple[str, ...] = ()) -> None:
+def warm(processes: int = 2, skip_dc: tuple[str, ...] = (), threaded_dc: bool = True) -> None:
     """Compile (or load) the environment kernels of :func:`warm_jobs` into the disk cache,
     ``processes`` at a time, each in one process only; prints each job's seconds."""
     t0 = time.perf_counter()
     jobs = warm_jobs(skip_dc)
     with mp.get_context("spawn").Pool(processes, maxtasksperchild=None) as pool:
-        for job, s in pool.imap_unordered(warm_one, jobs):
+        for job, s in pool.imap_unordered(partial(warm_one, threaded_dc=threaded_dc), jobs):
             print(f"numba cache: {job_name(job)} {s:.1f} s", flush=True)
     print(f"numba cache: {len(jobs)} jobs in {time.perf_counter() - t0:.1f} s", flush=True)
 
@@ -133,10 +136,13 @@ if __name__ == "__main__":
     parser.add_argument("--processes", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--skip-dc", action="append", default=[], metavar="ROBOT",
                         help="leave out ROBOT's DC-motor and voltage-mode kernels (repeatable)")
+    parser.add_argument("--skip-threaded-dc", action="store_true",
+                        help="leave out the DC-motor kernels of batches from "
+                             f"{PAR_MIN_ROWS} robots (the threaded ones)")
     args = parser.parse_args()
     if args.processes < 1:
         parser.error(f"--processes must be >= 1, got {args.processes}")
     try:
-        warm(args.processes, tuple(args.skip_dc))
+        warm(args.processes, tuple(args.skip_dc), not args.skip_threaded_dc)
     except ValueError as e:
         parser.error(str(e))
