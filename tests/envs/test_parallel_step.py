@@ -57,6 +57,25 @@ def test_parallel_kernel_same_bits_as_serial(robot):
     assert not p[0] and (p[1] == -7.0).all() and _same_bits(p[2], core.B)
 
 
+@pytest.mark.slow  # compiles the threaded DC kernels, which make test's warm-up leaves out
+@pytest.mark.parametrize("robot", [r for r in available_robots() if get_spec(r).has_dc_motors])
+def test_parallel_dc_kernel_same_bits_as_serial(robot):
+    spec = get_spec(robot)
+    core = WheelCore(robot, N, motor="dc", randomize=True if spec.default_randomize else None)
+    assert core.dc and core.spec.step_kernels(True, N)[1] is spec.k_env_step_par_dc
+    core.reset(None, [np.random.default_rng(i) for i in range(N)])
+    rng = np.random.default_rng(3)
+    for step in range(3):
+        A = rng.uniform(-1.5, 1.5, (N, core.m))  # inside and outside [-1, 1]
+        s = _run(spec.serial_kernel(True, N), core, A, core.n_sub)
+        p = _run(spec.k_env_step_par_dc, core, A, core.n_sub)
+        assert s[0] and p[0]
+        for a, b in zip(s[1:], p[1:], strict=True):
+            assert _same_bits(a, b), f"{robot} step {step}"
+        assert not (s[1] == core.X).all()  # the state moved
+        core.X[:] = s[1]
+
+
 def test_core_dispatch_on_batch_size(monkeypatch):
     spec = get_spec("SkidSteer")
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 2)  # whatever the caller exported
