@@ -30,50 +30,39 @@ def _same_bits(a, b) -> bool:
     return a.shape == b.shape and np.array_equal(a.view(np.uint8), b.view(np.uint8))
 
 
-@pytest.mark.parametrize("robot", available_robots())
-def test_parallel_kernel_same_bits_as_serial(robot):
+@pytest.mark.parametrize("robot, dc", [
+    *((r, False) for r in available_robots()),
+    # the DC-motor kernels: slow, as make test's warm-up leaves the threaded ones out
+    *(pytest.param(r, True, marks=pytest.mark.slow) for r in available_robots()
+      if get_spec(r).has_dc_motors)])
+def test_parallel_kernel_same_bits_as_serial(robot, dc):
     spec = get_spec(robot)
-    core = WheelCore(robot, N, randomize=True if spec.default_randomize else None)
+    core = WheelCore(robot, N, randomize=True if spec.default_randomize else None,
+                     **({"motor": "dc"} if dc else {}))
+    assert core.dc == dc
+    serial, par = spec.step_kernels(dc, N)
     if numba.config.NUMBA_NUM_THREADS > 1:
-        assert core._k_step.kernels == (spec.serial_kernel(False, N), spec.k_env_step_par)
+        assert core._k_step.kernels == (serial, par)
     else:  # NUMBA_NUM_THREADS=1 exported: the core keeps the serial kernel; the bits still
-        assert core._k_step is spec.serial_kernel(False, N)  # compare below (threaded on 1 thread)
+        assert core._k_step is serial  # compare below (threaded on 1 thread)
     core.reset(None, [np.random.default_rng(i) for i in range(N)])
     rng = np.random.default_rng(3)
     core.X[5, 3:] = np.inf  # a row whose step fails: restored, F_OK False
     for step in range(3):
         A = rng.uniform(-1.5, 1.5, (N, core.m))  # inside and outside [-1, 1]
-        s = _run(spec.serial_kernel(False, N), core, A, core.n_sub)
-        p = _run(spec.k_env_step_par, core, A, core.n_sub)
+        s = _run(serial, core, A, core.n_sub)
+        p = _run(par, core, A, core.n_sub)
         assert s[0] and p[0]
         for a, b in zip(s[1:], p[1:], strict=True):
             assert _same_bits(a, b), f"{robot} step {step}"
         if spec.n_motor and step == 0:
             assert not s[3][5, 1] and s[3][:, 0].any()  # the failure and clipping paths ran
+        assert not (s[1] == core.X).all()  # the state moved
         core.X[:] = s[1]
     # a non-finite action: nothing is written, as in the serial kernel
     A[N - 1, 0] = np.nan
-    p = _run(spec.k_env_step_par, core, A, core.n_sub)
+    p = _run(par, core, A, core.n_sub)
     assert not p[0] and (p[1] == -7.0).all() and _same_bits(p[2], core.B)
-
-
-@pytest.mark.slow  # compiles the threaded DC kernels, which make test's warm-up leaves out
-@pytest.mark.parametrize("robot", [r for r in available_robots() if get_spec(r).has_dc_motors])
-def test_parallel_dc_kernel_same_bits_as_serial(robot):
-    spec = get_spec(robot)
-    core = WheelCore(robot, N, motor="dc", randomize=True if spec.default_randomize else None)
-    assert core.dc and core.spec.step_kernels(True, N)[1] is spec.k_env_step_par_dc
-    core.reset(None, [np.random.default_rng(i) for i in range(N)])
-    rng = np.random.default_rng(3)
-    for step in range(3):
-        A = rng.uniform(-1.5, 1.5, (N, core.m))  # inside and outside [-1, 1]
-        s = _run(spec.serial_kernel(True, N), core, A, core.n_sub)
-        p = _run(spec.k_env_step_par_dc, core, A, core.n_sub)
-        assert s[0] and p[0]
-        for a, b in zip(s[1:], p[1:], strict=True):
-            assert _same_bits(a, b), f"{robot} step {step}"
-        assert not (s[1] == core.X).all()  # the state moved
-        core.X[:] = s[1]
 
 
 def test_core_dispatch_on_batch_size(monkeypatch):
