@@ -6,6 +6,9 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 UVPIP  := $(PY) -m uv pip install --quiet --native-tls --python $(PY) --compile-bytecode
+# $(call install,ARGS): uv pip install ARGS, pip if uv fails (a comma in ARGS via a variable)
+install = $(UVPIP) $(1) || $(PIP) install --quiet $(1)
+DEV_EXTRAS := .[train,dev,cluster,clients,onnx]
 STAMP  := $(VENV)/.installed
 
 .PHONY: run test test-slow lint bench validate docs docs-check clean-venv wheel-smoke
@@ -17,7 +20,7 @@ $(STAMP): pyproject.toml setup.py
 	# which installs the rest with parallel downloads and byte-compiling: 22 s instead of pip's
 	# 58 s (docs/topics/performance.md); pip if uv fails.
 	$(PIP) install --quiet "torch==2.13.0" uv
-	$(UVPIP) -e ".[train,dev,cluster,clients,onnx]" || $(PIP) install --quiet -e ".[train,dev,cluster,clients,onnx]"
+	$(call install,-e "$(DEV_EXTRAS)")
 	touch $(STAMP)
 
 run: $(STAMP)
@@ -51,7 +54,7 @@ wheel-smoke: $(STAMP)
 # every built page in headless Chromium (Debian's chromium package, /usr/bin/chromium).
 DOCS_STAMP := $(VENV)/.installed-docs
 $(DOCS_STAMP): $(STAMP)
-	$(UVPIP) -e ".[docs]" || $(PIP) install --quiet -e ".[docs]"
+	$(call install,-e ".[docs]")
 	touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP)
