@@ -118,7 +118,7 @@ def _run_child(pkg: Path, kw: dict) -> dict:
 # The child of ``--twice``: the warm-up's jobs (or pytest on given paths) on the fresh copy in
 # one process, each top-level compile recorded with its signature and its exclusive CPU time.
 TWICE_CHILD = r"""
-import collections, json, sys, time
+import json, sys, time
 import numba.core.event as ev
 stack, done = [], []
 class Rec(ev.Listener):

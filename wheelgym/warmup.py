@@ -81,8 +81,9 @@ def warm_one(job: Job, threaded_dc: bool = True) -> tuple[Job, float]:
     the seconds."""
     t0 = time.perf_counter()
     robots, family = job
-    for robot in robots if family != "dc" else ():  # a model's own kernels: one state, a
-        spec = get_spec(robot)                       # batch, a threaded batch
+    # the models' own kernels (ideal motors): one state, a batch, a threaded batch
+    for robot in robots if family != "dc" else ():
+        spec = get_spec(robot)
         model = spec.model_cls(None, input_mode=spec.action_modes[0]) if spec.kinematic \
             else spec.model_cls()
         for lead in ((), (3,), (PARALLEL_MIN_BATCH,)):
