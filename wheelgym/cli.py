@@ -216,7 +216,11 @@ def _parser() -> argparse.ArgumentParser:
                         "in the CSV)")
     b.add_argument("--quick", action="store_true",
                    help="1 seed, a tenth of each budget, 5 episodes")
-    b.add_argument("--seeds", type=_positive_int, default=None, help="seeds 0 .. N-1 (5)")
+    b.add_argument("--seeds", type=_positive_int, default=None,
+                   help="seeds FIRST .. FIRST+N-1 (5)")
+    b.add_argument("--first-seed", type=_nonneg_int, default=0, metavar="FIRST",
+                   help="the first seed (0: the table's; e.g. 5 for seeds that no recipe was "
+                        "chosen on; their rows join the CSV's table)")
     b.add_argument("--episodes", type=_positive_int, default=None,
                    help="evaluation episodes per seed (50)")
     b.add_argument("--budget", type=_positive_int, default=None,
@@ -485,6 +489,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
                          f"{NAVIGATE_BEGIN!r} ... {NAVIGATE_END!r}")
     if a.rescore:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                                ("--first-seed", a.first_seed),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
                                 ("--ray", a.ray is not None), ("--drop-stale", a.drop_stale),
                                 ("--table", a.table), ("--curves", a.curves is not None))
@@ -500,6 +505,7 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
         table = format_table([r for r in read_rows(csv_path) if not names or r["config"] in names])
     elif a.table or a.curves is not None:
         given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                                ("--first-seed", a.first_seed),
                                 ("--episodes", a.episodes), ("--budget", a.budget),
                                 ("--workers", a.workers is not None),
                                 ("--ray", a.ray is not None)) if v]
@@ -523,7 +529,8 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     else:
         configs = [resources.config_path(p, "CONFIGS") for p in a.configs]
         table = run_benchmark(configs or None, quick=a.quick, seeds=a.seeds,
-                              episodes=a.episodes, budget=a.budget, runs_root=a.runs_root,
+                              first_seed=a.first_seed, episodes=a.episodes, budget=a.budget,
+                              runs_root=a.runs_root,
                               csv_path=csv_path, workers=a.workers, ray=a.ray,
                               drop_stale=a.drop_stale, log=_print)
     _print(table)

@@ -4,6 +4,7 @@ from a CSV, learning curves, and the configs it runs."""
 from __future__ import annotations
 
 import csv
+import json
 import os
 from pathlib import Path
 
@@ -121,6 +122,29 @@ def test_benchmark_resumes_and_skips_finished_rows(tmp_path, monkeypatch, capsys
     assert "--rescore scores the CSV's runs again" in capsys.readouterr().err
     assert _run_main(["benchmark", "--rescore", "--csv", str(out), "nope.yml"]) == 2
     assert "configs ['nope'] have no rows" in capsys.readouterr().err
+
+
+def test_first_seed_trains_the_seeds_after_it(tmp_path, capsys):
+    """``--first-seed 3 --seeds 1`` trains seed 3 alone (seeds no recipe was chosen on), its run
+    seeded with 3; the table printed is that seed's; a negative first seed is refused."""
+    goal = _write_config(tmp_path, "tiny-goal", "goal")
+    out, runs = tmp_path / "training.csv", tmp_path / "runs"
+    rc = main(["benchmark", str(goal), "--first-seed", "3", "--seeds", "1", "--episodes", "2",
+               "--budget", "512", "--csv", str(out), "--runs-root", str(runs)])
+    text = capsys.readouterr().out
+    assert rc == 0 and "1 run(s) to do, 0 already" in text, text
+    rows = read_rows(out)
+    assert [r["seed"] for r in rows] == ["3"]
+    run = json.loads((Path(rows[0]["run_dir"]) / "run.json").read_text())
+    assert run["seed"] == 3
+    assert "| tiny-goal | scratch | PPO | 512 | 1 | 2 |" in text
+    assert "(s3)" in text  # the worst (only) seed is seed 3
+    with pytest.raises(ValueError, match="first_seed must be an integer >= 0"):
+        run_jobs([goal], seeds=1, episodes=2, budget=512, csv_path=out, runs_root=runs,
+                 first_seed=-1)
+    assert _run_main(["benchmark", "--table", "--first-seed", "2", "--csv", str(out)]) == 2
+    assert "--table and --curves read the CSV and train nothing; drop --first-seed" in \
+        capsys.readouterr().err
 
 
 def test_table_from_a_known_csv(tmp_path):

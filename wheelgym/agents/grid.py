@@ -4,7 +4,8 @@
 (:mod:`wheelgym.agents.store`; ``benchmarks/results/training.csv`` by default) as soon as it
 ends. Run again, it skips the jobs whose row is there (same config, seed, budget and evaluation
 episodes), so the table can be built over several sittings, and seeds added later (``seeds=5``
-after 3) train only the new ones. ``workers`` > 1 runs jobs in parallel local processes, each
+after 3) train only the new ones; ``first_seed`` starts the seeds elsewhere than 0, for
+seeds that no recipe was chosen on. ``workers`` > 1 runs jobs in parallel local processes, each
 with one torch and one numba thread; ``ray`` runs them as Ray tasks instead, on this machine or
 a cluster (:mod:`wheelgym.agents.cluster`). Either way only the main process writes the CSV.
 Scores: :mod:`wheelgym.agents.scoring`. A ``budget`` (training steps) other than the config's
@@ -168,12 +169,17 @@ class BenchmarkSummary:
     wall_s: float
 
 
-def _check_args(seeds: Any, episodes: Any, workers: Any, ray: Any, budget: Any) -> None:
+def _check_args(seeds: Any, episodes: Any, workers: Any, ray: Any, budget: Any,
+                first_seed: Any = 0) -> None:
     for name, value in (("seeds", seeds), ("episodes", episodes), ("workers", workers)):
         if value is None and name == "workers":
             continue
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    if (not isinstance(first_seed, int) or isinstance(first_seed, bool) or first_seed < 0
+            or first_seed + seeds > 2**32):
+        raise ValueError(f"first_seed must be an integer >= 0 with first_seed + seeds <= 2**32, "
+                         f"got {first_seed!r}")
     if ray is not None and (not isinstance(ray, str) or not ray.strip()):
         raise ValueError(f"ray must be 'local', 'auto' or 'host:port', got {ray!r}")
     if budget is not None and (not isinstance(budget, int) or budget < 1):
@@ -225,8 +231,8 @@ def _present_rows(csv_path: Path, loaded: list[tuple[Path, TrainConfig]], budget
     return present
 
 
-def _plan(loaded: list[tuple[Path, TrainConfig]], present: list[dict[str, str]], seeds: int,
-          episodes: int, budget: int | None, quick: bool, root: Path,
+def _plan(loaded: list[tuple[Path, TrainConfig]], present: list[dict[str, str]],
+          seeds: range, episodes: int, budget: int | None, quick: bool, root: Path,
           ray: str | None) -> tuple[list[Job], int]:
     """The jobs whose row is not in the CSV yet, and how many are."""
     done = {row_key(r) for r in present}
@@ -234,7 +240,7 @@ def _plan(loaded: list[tuple[Path, TrainConfig]], present: list[dict[str, str]],
     skipped = 0
     for path, config in loaded:
         digest = config_digest(config)
-        for s in range(seeds):
+        for s in seeds:
             job = Job(str(path), path.stem, s, _steps(config, budget, quick), episodes,
                       str(root), digest=digest)
             if ray is not None:
@@ -362,6 +368,7 @@ def run_jobs(
     budget: int | None = None,
     quick: bool = False,
     csv_path: str | Path = DEFAULT_CSV,
+    first_seed: int = 0,
     runs_root: str | Path = "runs/benchmark",
     workers: int | None = None,
     ray: str | None = None,
@@ -370,11 +377,13 @@ def run_jobs(
 ) -> BenchmarkSummary:
     """Train and score every (config, seed) whose row is not in ``csv_path`` yet; append rows.
 
-    ``seeds``: seeds ``0 .. seeds - 1`` per config. ``budget`` overrides each config's
-    ``n_timesteps``; ``quick``: a tenth of each budget (at least 2048 steps). ``workers``:
-    parallel local processes (default 1); with ``ray`` (an address: ``local``, ``auto`` or
-    ``host:port``) the jobs are Ray tasks instead, ``workers`` then caps the tasks at a time
-    (``local``: the instance's CPUs; default all), and a task that raised is retried once.
+    ``seeds``: seeds ``first_seed .. first_seed + seeds - 1`` per config (``first_seed`` 0:
+    the table's; a later one gives seeds that no recipe was chosen on). ``budget`` overrides
+    each config's ``n_timesteps``; ``quick``: a tenth of each budget (at least 2048 steps).
+    ``workers``: parallel local processes (default 1); with ``ray`` (an address: ``local``,
+    ``auto`` or ``host:port``) the jobs are Ray tasks instead, ``workers`` then caps the tasks
+    at a time (``local``: the instance's CPUs; default all), and a task that raised is retried
+    once.
     Ctrl-C keeps the finished rows (running jobs stop and are dropped) and re-raises
     ``KeyboardInterrupt``; a job that raised is reported in ``failed``.
 
@@ -385,7 +394,7 @@ def run_jobs(
     when no ``budget`` or ``quick`` is given, the config's rows at budgets other than its
     ``n_timesteps``; the stale rows' runs are then trained again.
     """
-    _check_args(seeds, episodes, workers, ray, budget)
+    _check_args(seeds, episodes, workers, ray, budget, first_seed)
     csv_path, root = Path(csv_path), Path(runs_root)
     if ray is not None:
         root = root.resolve()  # a task's working folder is not the driver's
@@ -396,7 +405,8 @@ def run_jobs(
     paths = [Path(p) for p in configs] if configs else default_configs()
     loaded = [(p, load_config(p)) for p in paths]  # every config checked before any work
     present = _present_rows(csv_path, loaded, budget, quick, drop_stale, log)
-    jobs, skipped = _plan(loaded, present, seeds, episodes, budget, quick, root, ray)
+    jobs, skipped = _plan(loaded, present, range(first_seed, first_seed + seeds), episodes,
+                          budget, quick, root, ray)
     if log is not None:
         where = (f"Ray at {ray}" if ray is not None else f"{workers or 1} worker(s)")
         log(f"benchmark: {len(jobs)} run(s) to do, {skipped} already in {csv_path}; {where}")
@@ -432,6 +442,7 @@ def run_benchmark(
     budget: int | None = None,
     runs_root: str | Path = "runs/benchmark",
     csv_path: str | Path = DEFAULT_CSV,
+    first_seed: int = 0,
     workers: int | None = None,
     ray: str | None = None,
     drop_stale: bool = False,
@@ -439,21 +450,23 @@ def run_benchmark(
 ) -> str:
     """:func:`run_jobs`, then the Markdown table of this call's configs, budgets and episodes.
 
-    Defaults: 5 seeds (0-4; the rows of seeds already in the CSV are kept), 50 evaluation
-    episodes, each config's ``n_timesteps``; ``quick``: 1 seed, 5 episodes, a tenth of each
-    budget (at least 2048 steps). Raises ``RuntimeError`` naming the jobs that failed (after
+    Defaults: 5 seeds from ``first_seed`` (0-4; the rows of seeds already in the CSV are
+    kept; the table shows this call's seeds only), 50 evaluation episodes, each config's
+    ``n_timesteps``; ``quick``: 1 seed, 5 episodes, a tenth of each budget (at least 2048
+    steps). Raises ``RuntimeError`` naming the jobs that failed (after
     writing the others).
     """
     n_seeds = seeds if seeds is not None else (1 if quick else 5)
     n_eps = episodes if episodes is not None else (5 if quick else 50)
     paths = [Path(p) for p in configs] if configs else default_configs()
     summary = run_jobs(paths, seeds=n_seeds, episodes=n_eps, budget=budget, quick=quick,
-                       csv_path=csv_path, runs_root=runs_root, workers=workers, ray=ray,
-                       drop_stale=drop_stale, log=log)
+                       csv_path=csv_path, first_seed=first_seed, runs_root=runs_root,
+                       workers=workers, ray=ray, drop_stale=drop_stale, log=log)
     wanted = set()
     for p in paths:
         steps = _steps(load_config(p), budget, quick)
-        wanted |= {(p.stem, s, steps, n_eps) for s in range(n_seeds)}
+        wanted |= {(p.stem, s, steps, n_eps)
+                   for s in range(first_seed, first_seed + n_seeds)}
     rows = [r for r in summary.rows if row_key(r) in wanted]
     table = format_table(rows)
     if summary.failed:
