@@ -191,6 +191,30 @@ def test_table_from_a_known_csv(tmp_path):
     assert "of 3 seeds the middle one" in lines[-1]
 
 
+def test_on_track_the_lowest_success_seed_is_not_hidden_by_the_largest_rms_one(tmp_path):
+    """Seed 0 has the largest RMS error and 92% success, seed 1 88%: the worst-seed success
+    target (90%) is judged on seed 1, the RMS targets on seed 0, each shown with its seed."""
+    path = tmp_path / "t.csv"
+    common = {"algo": "ppo", "episodes": "50", "random_success": "0", "baseline_success": "0.4",
+              "config": "SkidSteer-track-velocity", "n_timesteps": "1000", "train_s": "10",
+              "baseline_rms": "0.02", "agent_saturation": "0.1"}
+    for seed, success, rms in (("0", "0.92", "0.03"), ("1", "0.88", "0.01"),
+                               ("2", "1", "0.02")):
+        _append_row(path, {**common, "seed": seed, "agent_success": success, "agent_rms": rms})
+    line = format_table(read_rows(path)).splitlines()[2]
+    cell = dict(zip(TABLE_HEAD, [c.strip() for c in line.strip("|").split("|")], strict=True))
+    assert cell["worst seed success [%]"] == "88 (s1)"
+    assert cell["worst seed RMS [m]"] == "0.030 (s0)"
+    assert cell["targets (mean)"] == "met"  # 93.3% >= 90%, RMS 0.02 <= max(0.04, 0.02)
+    assert cell["targets (worst seed)"] == "**success**"
+    # The RMS target on the largest-RMS seed: 0.05 m > max(2 x 0.02, 0.02) m.
+    _append_row(path, {**common, "seed": "3", "agent_success": "0.96", "agent_rms": "0.05"})
+    line = format_table(read_rows(path)).splitlines()[2]
+    cell = dict(zip(TABLE_HEAD, [c.strip() for c in line.strip("|").split("|")], strict=True))
+    assert cell["worst seed RMS [m]"] == "0.050 (s3)"
+    assert cell["targets (worst seed)"] == "**success**, **RMS**"
+
+
 def test_iqm_and_its_bootstrap_interval():
     from wheelgym.agents.table import bootstrap_ci, iqm
 
