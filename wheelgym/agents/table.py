@@ -209,7 +209,7 @@ def _iqm_cell(values: Sequence[float | None], scale: float, digits: int, key: st
 
 
 def _worst(rs: list[dict[str, str]], rms: bool) -> dict[str, str]:
-    """The worst seed's row: the lowest success, or on track the largest RMS error (ties: the
+    """The worst seed's row: the lowest success, or with ``rms`` the largest RMS error (ties: the
     lowest seed)."""
     def badness(r: dict[str, str]) -> tuple:
         if rms:
