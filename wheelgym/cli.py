@@ -314,6 +314,10 @@ def _parser() -> argparse.ArgumentParser:
                          "benchmarks/results/robustness, else runs/robustness)")
     rb.add_argument("--csv", type=Path, default=None,
                     help="CSV to append to and resume from (default OUT/robustness.csv)")
+    rb.add_argument("--drop-stale", action="store_true",
+                    help="remove the CSV's agent rows of TARGET that another model.zip made "
+                         "(column agent_sha: the agent was retrained or re-exported), then "
+                         "sweep the agent again")
     rb.add_argument("--plots-only", action="store_true",
                     help="redraw the figures and the summary from the CSV, run nothing")
     rb.add_argument("--page", type=Path, default=None, metavar="PAGE.md",
@@ -757,7 +761,7 @@ def _cmd_robustness(a: argparse.Namespace) -> int:
     else:
         res = rob.sweep(a.target, out=out, csv_path=csv_path, episodes=a.episodes, seed=a.seed,
                         axes=split(a.axes), policies=split(a.policies) or rob.POLICIES,
-                        log=_print)
+                        log=_print, drop_stale=a.drop_stale)
         _print(rob.timing_note(res))
         targets = [res["target"]]
     files = rob.plot(csv_path, out, targets)

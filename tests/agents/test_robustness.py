@@ -64,6 +64,40 @@ def test_sweep_resumes_and_plots(tmp_path):
     assert "action_delay" in rob.summary_table(r1["csv"])
 
 
+def test_a_changed_agent_s_rows_are_stale(tmp_path, capsys):
+    """The agent's rows carry its model.zip's digest: rows of another model are refused until
+    --drop-stale, which sweeps the agent again and keeps the baseline's rows; a CSV from before
+    the column gets it (empty) and resumes."""
+    kw = dict(out=tmp_path, episodes=2, axes=["action_delay"],
+              policies=("agent", "baseline-nom"))
+    loaded = rob.load_target(AGENT)
+    r1 = rob.sweep(AGENT, loaded=loaded, **kw)
+    rows = rob.read_rows(r1["csv"])
+    sha = rob.agent_digest(AGENT)
+    assert len(sha) == 12 and {r["agent_sha"] for r in rows if r["policy"] == "agent"} == {sha}
+    assert {r["agent_sha"] for r in rows if r["policy"] != "agent"} == {""}
+    # rows written by another model.zip (a retrained or re-exported agent)
+    text = r1["csv"].read_text()
+    r1["csv"].write_text(text.replace(f",{sha}\n", ",0123456789ab\n"))
+    with pytest.raises(ValueError, match="5 agent row.*--drop-stale"):
+        rob.sweep(AGENT, loaded=loaded, **kw)
+    capsys.readouterr()
+    assert main(["robustness", AGENT, "--episodes", "2", "--axes", "action_delay", "--policies",
+                 "agent,baseline-nom", "--out", str(tmp_path)]) == 2
+    assert "--drop-stale" in capsys.readouterr().err
+    r2 = rob.sweep(AGENT, loaded=loaded, drop_stale=True, **kw)
+    assert r2["ran"] == 5 and r2["skipped"] == 5  # the agent again, not the baseline
+    again = rob.read_rows(r1["csv"])
+    assert len(again) == 10 and {r["agent_sha"] for r in again if r["policy"] == "agent"} == {sha}
+    # a CSV from before the column: the column is added, empty for the old rows, nothing reruns
+    lines = r1["csv"].read_text().splitlines()
+    r1["csv"].write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines))
+    r3 = rob.sweep(AGENT, loaded=loaded, **kw)
+    assert r3["ran"] == 0 and r3["skipped"] == 10
+    assert r1["csv"].read_text().splitlines()[0].endswith(",status,agent_sha")
+    assert {r["agent_sha"] for r in rob.read_rows(r1["csv"])} == {""}
+
+
 def test_cli_robustness(tmp_path, capsys):
     rc = main(["robustness", AGENT, "--episodes", "2", "--axes", "combined", "--policies",
                "baseline-nom,baseline-true,random", "--out", str(tmp_path)])

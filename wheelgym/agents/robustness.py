@@ -20,7 +20,10 @@ Each (level, policy) runs all its episodes as one batch of the native vector env
 ``predict`` per step, :func:`wheelgym.agents.evaluate.run_episodes_vector`) and appends one row
 to the CSV (:data:`COLUMNS`): the metrics of :mod:`wheelgym.agents.evaluate` as mean and
 standard deviation over episodes. A row already in the CSV (same target, axis, level, policy,
-episodes and seed) is not run again, so an interrupted sweep resumes. :func:`plot` draws success,
+episodes and seed) is not run again, so an interrupted sweep resumes. The agent's rows record
+a digest of its ``model.zip`` (``agent_sha``): after the agent is retrained or re-exported its
+old rows are stale, and the sweep refuses to mix them with new ones until ``drop_stale``
+removes them (rows from before the column, with it empty, are kept). :func:`plot` draws success,
 RMS tracking error (``track``) and energy (robots with motors) against each axis from the CSV,
 the policies as lines (``docs/topics/robustness.md``).
 """
@@ -29,6 +32,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import hashlib
 import json
 import math
 import time
@@ -47,7 +51,8 @@ from wheelgym.agents.policies import RandomPolicy, load_agent
 from wheelgym.envs.baseline import baseline
 from wheelgym.envs.perturbation import LEVELS, Perturbation
 
-__all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "applicable_axes", "sweep",
+__all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "agent_digest",
+           "applicable_axes", "sweep",
            "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT", "fails",
            "SUCCESS_MIN", "RMS_FACTOR", "csv_number"]
 
@@ -112,7 +117,7 @@ AXES: dict[str, Axis] = {a.name: a for a in (
 COLUMNS = ("target", "config", "axis", "level", "unit", "policy", "episodes", "seed",
            "success", "success_sd", "rms", "rms_sd", "energy", "energy_sd", "return",
            "return_sd", "peak_torque", "saturation", "length", "numerical_failures", "wall_s",
-           "status")
+           "status", "agent_sha")
 
 _METRIC_COLS = {"success": "success", "rms_tracking_error": "rms", "energy": "energy",
                 "ret": "return"}
@@ -135,6 +140,47 @@ def load_target(target: str | Path) -> tuple[str, Any, TrainConfig]:
     agent, config = load_pretrained(str(target))
     name = Path(config.source).parent.name
     return name, agent, dataclasses.replace(config, source=f"{name}.yml")
+
+
+def agent_digest(target: str | Path) -> str:
+    """The first 12 hex digits of the SHA-256 of the target's ``model.zip`` (a run folder's, or
+    the shipped agent's): the ``agent_sha`` of its rows."""
+    path = Path(target)
+    if (path / "config.yml").is_file():
+        model = path / "model.zip"
+    else:
+        from wheelgym.agents.pretrained import MODEL, _folder
+
+        model = _folder(str(target), None) / MODEL
+    return hashlib.sha256(model.read_bytes()).hexdigest()[:12]
+
+
+def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool) -> set[tuple]:
+    """The keys of the rows done, after adding the ``agent_sha`` column to a CSV from before it
+    and dropping (``drop_stale``) the target's agent rows of another model, or refusing them."""
+    rows = read_rows(csv_path)
+    if not csv_path.is_file():
+        return set()
+    with csv_path.open(newline="") as f:
+        header = tuple(next(csv.reader(f), ()))
+    if header != COLUMNS and header != COLUMNS[:-1]:
+        raise ValueError(f"{csv_path}: not a robustness CSV (its columns are not {list(COLUMNS)})")
+    stale = [r for r in rows if r["target"] == name and r["policy"] == "agent"
+             and r.get("agent_sha") and r["agent_sha"] != sha]
+    if stale and not drop_stale:
+        raise ValueError(f"{csv_path} holds {len(stale)} agent row(s) of {name!r} from another "
+                         f"model.zip than its {sha} (column agent_sha); give --drop-stale to "
+                         f"remove them and sweep the agent again, or another --csv")
+    if stale or header != COLUMNS:
+        gone = {id(r) for r in stale}
+        keep = [r for r in rows if id(r) not in gone]
+        with csv_path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
+            w.writeheader()
+            w.writerows({c: r.get(c) or "" for c in COLUMNS} for r in keep)
+        rows = keep
+    return {_key(r["target"], r["axis"], r["level"], r["policy"], r["episodes"], r["seed"])
+            for r in rows}
 
 
 def _robot_of(config: TrainConfig) -> Any:
@@ -215,10 +261,13 @@ def _row(target: str, config: TrainConfig, axis: Axis, level: Any, policy: str,
 def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | Path | None = None,
           episodes: int = 50, seed: int = 100_000, axes: Sequence[str] | None = None,
           policies: Sequence[str] = POLICIES, log: Callable[[str], None] | None = None,
-          loaded: tuple[str, Any, TrainConfig] | None = None) -> dict[str, Any]:
+          loaded: tuple[str, Any, TrainConfig] | None = None,
+          drop_stale: bool = False) -> dict[str, Any]:
     """Run (or resume) the sweep of ``target``; returns ``{"csv", "rows", "ran", "skipped",
     "wall_s", "figures"}``. ``loaded``: the ``(name, agent, config)`` of :func:`load_target`
-    when already loaded. Episodes of a level: seeds ``seed .. seed + episodes - 1``."""
+    when already loaded. Episodes of a level: seeds ``seed .. seed + episodes - 1``.
+    ``drop_stale``: remove the target's agent rows of another ``model.zip`` first (else they
+    raise ``ValueError``)."""
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
         raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
     bad = [p for p in policies if p not in POLICIES]
@@ -233,8 +282,8 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "robustness.csv" if csv_path is None else Path(csv_path)
-    done = {_key(r["target"], r["axis"], r["level"], r["policy"], r["episodes"], r["seed"])
-            for r in read_rows(csv_path)}
+    sha = agent_digest(target)
+    done = _resume(csv_path, name, sha, drop_stale)
     new_file = not csv_path.is_file()
     seeds = [seed + i for i in range(episodes)]
     cache: dict[tuple[str, str], dict[str, Any]] = {}  # (policy, perturbation) -> row
@@ -278,6 +327,7 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
                         metrics = ()
                     row = _row(name, config, axis, level, pol, episodes, seed, eps,
                                time.perf_counter() - t0, status, metrics)
+                    row["agent_sha"] = sha if pol == "agent" else ""
                     cache[ck] = row
                     w.writerow(row)
                     f.flush()
