@@ -81,6 +81,8 @@ def test_a_changed_agent_s_rows_are_stale(tmp_path, capsys):
     r1["csv"].write_text(text.replace(f",{sha}\n", ",0123456789ab\n"))
     with pytest.raises(ValueError, match="5 agent row.*--drop-stale"):
         rob.sweep(AGENT, loaded=loaded, **kw)
+    # a sweep of the baseline alone leaves the agent's rows as they are
+    assert rob.sweep(AGENT, loaded=loaded, **{**kw, "policies": ("baseline-nom",)})["ran"] == 0
     capsys.readouterr()
     assert main(["robustness", AGENT, "--episodes", "2", "--axes", "action_delay", "--policies",
                  "agent,baseline-nom", "--out", str(tmp_path)]) == 2

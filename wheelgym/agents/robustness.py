@@ -166,7 +166,7 @@ def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool) -> set[tuple]
     if header != COLUMNS and header != COLUMNS[:-1]:
         raise ValueError(f"{csv_path}: not a robustness CSV (its columns are not {list(COLUMNS)})")
     stale = [r for r in rows if r["target"] == name and r["policy"] == "agent"
-             and r.get("agent_sha") and r["agent_sha"] != sha]
+             and r.get("agent_sha") and r["agent_sha"] != sha and sha]
     if stale and not drop_stale:
         raise ValueError(f"{csv_path} holds {len(stale)} agent row(s) of {name!r} from another "
                          f"model.zip than its {sha} (column agent_sha); give --drop-stale to "
@@ -283,7 +283,8 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "robustness.csv" if csv_path is None else Path(csv_path)
     sha = agent_digest(target)
-    done = _resume(csv_path, name, sha, drop_stale)
+    # ("": a sweep without the agent neither judges nor drops its rows)
+    done = _resume(csv_path, name, sha if "agent" in policies else "", drop_stale)
     new_file = not csv_path.is_file()
     seeds = [seed + i for i in range(episodes)]
     cache: dict[tuple[str, str], dict[str, Any]] = {}  # (policy, perturbation) -> row
