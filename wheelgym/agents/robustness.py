@@ -258,6 +258,14 @@ def _row(target: str, config: TrainConfig, axis: Axis, level: Any, policy: str,
     return row
 
 
+def _check_sweep_args(episodes: Any, policies: Sequence[str]) -> None:
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    bad = [p for p in policies if p not in POLICIES]
+    if bad:
+        raise ValueError(f"unknown policy {bad[0]!r}; valid policies: {list(POLICIES)}")
+
+
 def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | Path | None = None,
           episodes: int = 50, seed: int = 100_000, axes: Sequence[str] | None = None,
           policies: Sequence[str] = POLICIES, log: Callable[[str], None] | None = None,
@@ -268,11 +276,7 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
     when already loaded. Episodes of a level: seeds ``seed .. seed + episodes - 1``.
     ``drop_stale``: remove the target's agent rows of another ``model.zip`` first (else they
     raise ``ValueError``)."""
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
-    bad = [p for p in policies if p not in POLICIES]
-    if bad:
-        raise ValueError(f"unknown policy {bad[0]!r}; valid policies: {list(POLICIES)}")
+    _check_sweep_args(episodes, policies)
     name, agent, config = loaded if loaded is not None else load_target(target)
     import torch
 
