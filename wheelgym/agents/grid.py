@@ -453,8 +453,7 @@ def run_benchmark(
     Defaults: 5 seeds from ``first_seed`` (0-4; the rows of seeds already in the CSV are
     kept; the table shows this call's seeds only), 50 evaluation episodes, each config's
     ``n_timesteps``; ``quick``: 1 seed, 5 episodes, a tenth of each budget (at least 2048
-    steps). Raises ``RuntimeError`` naming the jobs that failed (after
-    writing the others).
+    steps). Raises ``RuntimeError`` naming the jobs that failed (after writing the others).
     """
     n_seeds = seeds if seeds is not None else (1 if quick else 5)
     n_eps = episodes if episodes is not None else (5 if quick else 50)
