@@ -158,15 +158,15 @@ def agent_digest(target: str | Path) -> str:
 def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool) -> set[tuple]:
     """The keys of the rows done, after adding the ``agent_sha`` column to a CSV from before it
     and dropping (``drop_stale``) the target's agent rows of another model, or refusing them."""
-    rows = read_rows(csv_path)
     if not csv_path.is_file():
         return set()
     with csv_path.open(newline="") as f:
-        header = tuple(next(csv.reader(f), ()))
+        reader = csv.DictReader(f)
+        header, rows = tuple(reader.fieldnames or ()), list(reader)
     if header != COLUMNS and header != COLUMNS[:-1]:
         raise ValueError(f"{csv_path}: not a robustness CSV (its columns are not {list(COLUMNS)})")
     stale = [r for r in rows if r["target"] == name and r["policy"] == "agent"
-             and r.get("agent_sha") and r["agent_sha"] != sha and sha]
+             and r.get("agent_sha") and r["agent_sha"] != sha] if sha else []
     if stale and not drop_stale:
         raise ValueError(f"{csv_path} holds {len(stale)} agent row(s) of {name!r} from another "
                          f"model.zip than its {sha} (column agent_sha); give --drop-stale to "
