@@ -48,7 +48,8 @@ observation), and outputs actions in the env's action space:
    kinematic robots map it onto their input mode.
 
 Everything is batched over the core's rows with elementwise NumPy (the car-like search: per
-row, its argmin exact, so a batch equals its single robots).
+row, its plans simulated by a compiled loop, :mod:`wheelgym.kinematics.car_rollout`, its argmin
+exact, so a batch equals its single robots).
 
 The model the baseline believes in (``model``, ``docs/topics/robustness.md``): ``"nominal"``
 (the default: the parameters the environment was built with, ``core.base_params``, whatever
@@ -67,6 +68,7 @@ from typing import Any
 import numpy as np
 
 from wheelgym.envs.core import WheelCore
+from wheelgym.kinematics.car_rollout import plan_costs
 
 # the compiled element-wise functions, not NumPy's: a batch must equal each of its robots bit
 # for bit on any CPU (NumPy's own loops depend on the CPU and the array's layout)
@@ -531,42 +533,6 @@ def _car_feedback(pose: np.ndarray, ref0: np.ndarray, ref1: np.ndarray, wheelbas
     return v, delta, es, en, eth
 
 
-def _car_rollout(start: np.ndarray, V: np.ndarray, D: np.ndarray, ref_xy: np.ndarray,
-                 dt: float, wheelbase: float, rate: float | None) -> np.ndarray:
-    """Sum over the horizon of the squared distance to the reference of ``K`` plans.
-
-    ``start (n, 4)`` the rows' ``(x, y, yaw, psi)``, ``V, D (n, H, K)`` each plan's speed
-    (m/s) and steering angle (rad) per control step, ``ref_xy (n, H, 2)`` the reference
-    positions after each step. The model is the car's: ``yawdot = v tan(psi) / l`` with the
-    steering ``psi = delta`` (Bicycle) or turned toward ``delta`` at ``rate`` rad/s at most
-    (Ackermann), integrated at the step's midpoint heading. Returns ``(n, K)`` (m^2).
-    """
-    n, H, K = V.shape
-    x = np.repeat(start[:, 0:1], K, axis=1)
-    y = np.repeat(start[:, 1:2], K, axis=1)
-    th = np.repeat(start[:, 2:3], K, axis=1)
-    psi = np.repeat(start[:, 3:4], K, axis=1)
-    vdt = V * dt
-    kappa = ew.sin(D) / ew.cos(D) / wheelbase if rate is None else None
-    cost = np.zeros((n, K))
-    for k in range(H):
-        if kappa is None:  # Ackermann: the steering turns at the rate limit at most
-            turn = np.clip(D[:, k] - psi, -rate * dt, rate * dt)
-            mid = psi + 0.5 * turn
-            psi = psi + turn
-            dth = vdt[:, k] * (ew.sin(mid) / ew.cos(mid) / wheelbase)
-        else:
-            dth = vdt[:, k] * kappa[:, k]
-        th_mid = th + 0.5 * dth
-        x = x + vdt[:, k] * ew.cos(th_mid)
-        y = y + vdt[:, k] * ew.sin(th_mid)
-        th = th + dth
-        ex = x - ref_xy[:, k, 0:1]
-        ey = y - ref_xy[:, k, 1:2]
-        cost = cost + (ex * ex + ey * ey)
-    return cost
-
-
 #: Car-like ``track``: rear-axle feedback gains ``k_e`` (1/m^2), ``k_th`` (1/m) and the speed
 #: feedback ``k_s`` (1/s) on the along-track error.
 _CAR_GAINS = (4.0, 4.0, 1.0)
@@ -576,17 +542,17 @@ class _CarTrackSearch:
     """Car-like ``track`` (Bicycle, Ackermann): feedback where the reference is within reach,
     a receding-horizon search where it is not (module docstring).
 
-    Each control step, per row: while the reference over the next ``H`` steps turns no
-    tighter than ``feasible`` times the car's minimum radius allows (Ackermann: and its
-    steering angle changes no faster than ``feasible`` times the rate limit) and the robot is
-    within ``near`` of it, the rear-axle feedback (:func:`_car_feedback`) drives. Elsewhere
-    ``H``-step plans of speed and steering angle are simulated (:func:`_car_rollout`) and the
-    one with the least summed squared distance to the reference positions is started: a fixed
-    table of ``samples`` random plans (``pieces`` piecewise-constant pieces, speeds uniform
-    in ``speeds``, steering angles among ``steer_levels`` times ``psi_max``; one table for
-    every row), the last plan moved on a step (else the feedback command held), and the best
-    so far with each piece's speed or steering moved by ``+-step`` (a second pass at half the
-    step). Element-wise per row (the argmin is exact), so a batch equals its single robots.
+    Each control step, per row: while the reference over the next ``H`` steps turns no tighter than
+    ``feasible`` times the car's minimum radius allows (Ackermann: and its steering angle changes no
+    faster than ``feasible`` times the rate limit) and the robot is within ``near`` of it, the
+    rear-axle feedback (:func:`_car_feedback`) drives. Elsewhere ``H``-step plans of speed and
+    steering angle are simulated (:func:`~wheelgym.kinematics.car_rollout.plan_costs`, compiled) and
+    the one with the least summed squared distance to the reference positions is started: a fixed
+    table of ``samples`` random plans (``pieces`` piecewise-constant pieces, speeds uniform in
+    ``speeds``, steering angles among ``steer_levels`` times ``psi_max``; one table for every row),
+    the last plan moved on a step (else the feedback command held), and the best so far with each
+    piece's speed or steering moved by ``+-step`` (a second pass at half the step). Element-wise per
+    row (the argmin is exact), so a batch equals its single robots.
 
     Args:
         core: the environment's core (a car-like robot on ``track``).
@@ -676,7 +642,7 @@ class _CarTrackSearch:
                     cv.append(pv[:, :, None])
                     cd.append(pd[:, :, None])
             V, D = np.concatenate(cv, axis=2), np.concatenate(cd, axis=2)
-            cost = _car_rollout(start, V, D, ref_xy, self.core.dt, self.wheelbase, self.rate)
+            cost = plan_costs(start, V, D, ref_xy, self.core.dt, self.wheelbase, self.rate)
             j = np.argmin(cost, axis=1)
             rows = np.arange(n)
             best_v, best_d = V[rows, :, j], D[rows, :, j]
