@@ -6,8 +6,8 @@ starts the one closest to the reference; this is that simulation. Per robot a co
 over its plans side by side (vectorised), one argument reduction for each sine and cosine pair
 (:func:`wheelgym.models.friction.sincos`, the body of :data:`wheelgym.models.elementwise.sin`
 and ``cos``), no temporaries: the same bits as the same arithmetic in element-wise NumPy on
-those ufuncs (``tests/kinematics/test_car_rollout.py``), several times faster
-(``benchmarks/car_track.py``).
+those ufuncs (``tests/kinematics/test_car_rollout.py``), and the baseline labels states off
+the reference about 4x as fast (``benchmarks/car_track.py``, docs/baselines.md).
 
 The model (``docs/physics/kinematic.md``): ``yawdot = v tan(psi) / l`` with the steering
 ``psi = delta`` (Bicycle) or turned toward ``delta`` at ``rate`` rad/s at most (Ackermann),
