@@ -24,6 +24,7 @@ import numpy as np
 from wheelgym.agents.policies import make_baseline
 from wheelgym.envs.robots import available_robots, get_spec
 from wheelgym.envs.robots.body import PAR_MIN_ROWS
+from wheelgym.kinematics.car_rollout import plan_costs
 from wheelgym.models import PARALLEL_MIN_BATCH
 from wheelgym.registration import env_id
 
@@ -91,6 +92,10 @@ def warm_one(job: Job, threaded_dc: bool = True) -> tuple[Job, float]:
             u = np.zeros(lead + (model.input_dim,))
             model.derivative(x, u)
             model.step(x, u, 0.01, 2)
+    if family is None:  # the car-like track baseline's search (it runs off the reference only)
+        for rate in (None, 1.0):
+            plan_costs(np.zeros((1, 4)), np.zeros((1, 2, 3)), np.zeros((1, 2, 3)),
+                       np.zeros((1, 2, 2)), 0.05, 1.0, rate)
     for robot, kw in _combos(job):
         for task in ("goal", "track", "navigate"):
             env = gym.make(env_id(robot), task=task, **kw)
