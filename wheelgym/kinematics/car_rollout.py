@@ -4,8 +4,8 @@ The car-like ``track`` baseline (:class:`wheelgym.envs.baseline._CarTrackSearch`
 several hundred ``H``-step plans of speed and steering angle per robot and control step and
 starts the one closest to the reference; this is that simulation. Per robot a compiled loop
 over its plans side by side (vectorised), one argument reduction for each sine and cosine pair
-(:func:`wheelgym.models.friction.sincos`, the body of :data:`wheelgym.models.elementwise.sin`
-and ``cos``), no temporaries: the same bits as the same arithmetic in element-wise NumPy on
+(:func:`wheelgym.models.elementwise.sincos_wide`, the body of
+:data:`~wheelgym.models.elementwise.sin` and ``cos``), no temporaries: the same bits as the same arithmetic in element-wise NumPy on
 those ufuncs (``tests/kinematics/test_car_rollout.py``), and the baseline labels states off
 the reference about 4x as fast (``benchmarks/car_track.py``, docs/baselines.md).
 
@@ -16,40 +16,30 @@ integrated over each control step at the step's midpoint heading.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
 from wheelgym import _numba_cache
 from wheelgym import integrators as _integrators
 from wheelgym.integrators import llvm_inline
+from wheelgym.models import elementwise as _elementwise
 from wheelgym.models import friction as _friction
+from wheelgym.models.elementwise import REDUCE_MAX, sincos_wide
 from wheelgym.models.friction import sincos
 
 __all__ = ["plan_costs"]
 
-_numba_cache.guard(__file__, _friction.__file__, _integrators.__file__)
-
-#: Beyond this |x| (rad) :mod:`wheelgym.models.elementwise` calls libm: so does this module.
-_REDUCE_MAX = 1e8
-
-
-@njit(cache=True, inline="always")
-def _sc(x):  # pragma: no cover - compiled
-    """``(sin x, cos x)``, the bits of ``elementwise.sin`` and ``elementwise.cos``."""
-    if abs(x) < _REDUCE_MAX:
-        return sincos(x)
-    return math.sin(x), math.cos(x)
+_numba_cache.guard(__file__, _friction.__file__, _integrators.__file__, _elementwise.__file__)
 
 
 @llvm_inline
-def _advance(S, j, vdt, a, wheelbase, rx, ry):  # pragma: no cover - compiled
-    """Plan ``j`` (column of ``S``) one step at speed x step ``vdt`` (m) and steering ``a``."""
-    s, co = sincos(a)
+def _advance(S, j, vdt, a, wheelbase, rx, ry, wide):  # pragma: no cover - compiled
+    """Plan ``j`` (column of ``S``) one step at speed x step ``vdt`` (m) and steering ``a``;
+    ``wide``: libm's sine and cosine beyond ``REDUCE_MAX`` (False in the vectorised pass)."""
+    s, co = sincos_wide(a) if wide else sincos(a)
     dth = vdt * (s / co / wheelbase)
     th_mid = S[2, j] + 0.5 * dth
-    s, co = sincos(th_mid)
+    s, co = sincos_wide(th_mid) if wide else sincos(th_mid)
     x = S[0, j] + vdt * co
     y = S[1, j] + vdt * s
     S[0, j] = x
@@ -61,71 +51,47 @@ def _advance(S, j, vdt, a, wheelbase, rx, ry):  # pragma: no cover - compiled
     S[5, j] = max(S[5, j], max(abs(a), abs(th_mid)))
 
 
-@njit(cache=True, error_model="numpy")
-def _k_plan_costs(start, V, D, ref_xy, dt, wheelbase, rate, cost):  # pragma: no cover
-    """Per row, the ``K`` plans side by side: one scratch array with the state in fixed rows
-    and no branch in the loop over plans, so that loop vectorises (as
-    :func:`wheelgym.integrators.rk4_block`'s); a row where an angle reaches ``_REDUCE_MAX``
-    is redone by :func:`_k_row`."""
-    n, H, K = V.shape
-    lim = rate * dt
-    S = np.empty((6, K))  # x, y, yaw, steering angle, cost, largest |angle|
-    for i in range(n):
-        for r in range(4):
-            S[r, :] = start[i, r]
-        S[4, :] = 0.0
-        S[5, :] = 0.0
-        for k in range(H):
-            rx, ry = ref_xy[i, k, 0], ref_xy[i, k, 1]
-            if rate < 0.0:  # Bicycle: the steering angle is the plan's
-                for j in range(K):
-                    _advance(S, j, V[i, k, j] * dt, D[i, k, j], wheelbase, rx, ry)
-            else:  # Ackermann: the steering turns toward it at the rate limit at most
-                for j in range(K):
-                    turn = D[i, k, j] - S[3, j]
-                    turn = -lim if turn < -lim else turn
-                    turn = lim if turn > lim else turn
-                    a = S[3, j] + 0.5 * turn
-                    S[3, j] = S[3, j] + turn
-                    _advance(S, j, V[i, k, j] * dt, a, wheelbase, rx, ry)
-        far = False
-        for j in range(K):
-            cost[i, j] = S[4, j]
-            far |= S[5, j] >= _REDUCE_MAX
-        if far:
-            _k_row(start[i], V[i], D[i], ref_xy[i], dt, wheelbase, rate, cost[i])
-
-
-@njit(cache=True, error_model="numpy")
-def _k_row(start, V, D, ref_xy, dt, wheelbase, rate, c):  # pragma: no cover
-    """One row plan by plan, with libm's sine and cosine beyond ``_REDUCE_MAX`` (as
-    :mod:`wheelgym.models.elementwise`)."""
+@llvm_inline
+def _row(S, start, V, D, ref_xy, dt, wheelbase, rate, wide):  # pragma: no cover - compiled
+    """One row's ``K`` plans side by side in ``S``: the state in fixed rows and no branch in
+    the loop over plans (with ``wide`` False), so that loop vectorises (as
+    :func:`wheelgym.integrators.rk4_block`'s)."""
     H, K = V.shape
     lim = rate * dt
-    for j in range(K):
-        x, y, th, psi = start[0], start[1], start[2], start[3]
-        cj = 0.0
-        for k in range(H):
-            vdt = V[k, j] * dt
-            if rate < 0.0:
-                a = D[k, j]
-            else:
-                turn = D[k, j] - psi
+    for r in range(4):
+        S[r, :] = start[r]
+    S[4, :] = 0.0
+    S[5, :] = 0.0
+    for k in range(H):
+        rx, ry = ref_xy[k, 0], ref_xy[k, 1]
+        if rate < 0.0:  # Bicycle: the steering angle is the plan's
+            for j in range(K):
+                _advance(S, j, V[k, j] * dt, D[k, j], wheelbase, rx, ry, wide)
+        else:  # Ackermann: the steering turns toward it at the rate limit at most
+            for j in range(K):
+                turn = D[k, j] - S[3, j]
                 turn = -lim if turn < -lim else turn
                 turn = lim if turn > lim else turn
-                a = psi + 0.5 * turn
-                psi = psi + turn
-            s, co = _sc(a)
-            dth = vdt * (s / co / wheelbase)
-            th_mid = th + 0.5 * dth
-            s, co = _sc(th_mid)
-            x = x + vdt * co
-            y = y + vdt * s
-            th = th + dth
-            ex = x - ref_xy[k, 0]
-            ey = y - ref_xy[k, 1]
-            cj = cj + (ex * ex + ey * ey)
-        c[j] = cj
+                a = S[3, j] + 0.5 * turn
+                S[3, j] = S[3, j] + turn
+                _advance(S, j, V[k, j] * dt, a, wheelbase, rx, ry, wide)
+
+
+@njit(cache=True, error_model="numpy")
+def _k_plan_costs(start, V, D, ref_xy, dt, wheelbase, rate, cost):  # pragma: no cover
+    """Each row by :func:`_row`; a row where an angle reaches ``REDUCE_MAX`` again with
+    libm's sine and cosine beyond it (as :mod:`wheelgym.models.elementwise`)."""
+    n, _, K = V.shape
+    S = np.empty((6, K))  # x, y, yaw, steering angle, cost, largest |angle|
+    for i in range(n):
+        _row(S, start[i], V[i], D[i], ref_xy[i], dt, wheelbase, rate, False)
+        far = False
+        for j in range(K):
+            far |= S[5, j] >= REDUCE_MAX
+        if far:
+            _row(S, start[i], V[i], D[i], ref_xy[i], dt, wheelbase, rate, True)
+        for j in range(K):
+            cost[i, j] = S[4, j]
 
 
 def plan_costs(start: np.ndarray, V: np.ndarray, D: np.ndarray, ref_xy: np.ndarray,

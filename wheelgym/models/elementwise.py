@@ -35,28 +35,35 @@ from numba import njit, vectorize
 from wheelgym.integrators import fma
 from wheelgym.models.friction import atan, sincos
 
-__all__ = ["sin", "cos", "arctan", "arctan2", "hypot", "wrap", "wrap_angle"]
+__all__ = ["sin", "cos", "sincos_wide", "REDUCE_MAX", "arctan", "arctan2", "hypot", "wrap",
+           "wrap_angle"]
 
 _TWO_PI = 2.0 * math.pi
 
 #: Beyond this |x| (rad) sin and cos call libm (the compiled reduction is exact below 2e8).
-_REDUCE_MAX = 1e8
+REDUCE_MAX = 1e8
+
+
+@njit(cache=True, inline="always")
+def sincos_wide(x):  # pragma: no cover - compiled
+    """``(sin x, cos x)`` for any ``x``: :func:`~wheelgym.models.friction.sincos` below
+    :data:`REDUCE_MAX`, libm beyond; the bits of :data:`sin` and :data:`cos`, for compiled
+    callers."""
+    if abs(x) < REDUCE_MAX:
+        return sincos(x)
+    return math.sin(x), math.cos(x)
 
 
 @vectorize(["float64(float64)"], cache=True)
 def _sin(x):  # pragma: no cover - compiled
     """``sin x`` (see the module table)."""
-    if abs(x) < _REDUCE_MAX:
-        return sincos(x)[0]
-    return math.sin(x)
+    return sincos_wide(x)[0]
 
 
 @vectorize(["float64(float64)"], cache=True)
 def _cos(x):  # pragma: no cover - compiled
     """``cos x`` (see the module table)."""
-    if abs(x) < _REDUCE_MAX:
-        return sincos(x)[1]
-    return math.cos(x)
+    return sincos_wide(x)[1]
 
 
 @vectorize(["float64(float64)"], cache=True)
