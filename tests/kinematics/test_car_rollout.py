@@ -92,3 +92,19 @@ def test_a_constant_steering_angle_drives_the_bicycle_on_its_circle():
                       centre, dt, l, None)[0, 0]
     drift = H * (v * dt) ** 3 / (24 * R ** 2)
     assert H * R ** 2 < cost < H * (R + drift) ** 2
+
+
+@pytest.mark.parametrize("rate", [None, 0.8])
+def test_shared_plans_cost_as_if_copied_into_every_row(rate):
+    """``shared`` plans come first in the result and cost what they cost as each row's own
+    plans (also on the row whose yaw takes libm)."""
+    start, V, D, ref = _plans(np.random.default_rng(5))
+    start[1, 2] = 1e9
+    rng = np.random.default_rng(6)
+    TV, TD = rng.uniform(-1.0, 2.0, (30, 41)), rng.uniform(-0.6, 0.6, (30, 41))
+    got = plan_costs(start, V, D, ref, 0.05, 0.3, rate, shared=(TV, TD))
+    n = start.shape[0]
+    Vc = np.concatenate([np.broadcast_to(TV, (n, 30, 41)), V], axis=2)
+    Dc = np.concatenate([np.broadcast_to(TD, (n, 30, 41)), D], axis=2)
+    assert got.shape == (n, 41 + 97)
+    np.testing.assert_array_equal(got, plan_costs(start, Vc, Dc, ref, 0.05, 0.3, rate))

@@ -584,6 +584,9 @@ class _CarTrackSearch:
         reps = np.diff(self.cuts)
         self.table_v = np.ascontiguousarray(np.repeat(v, reps, axis=1).T)  # (H, samples)
         self.table_d = np.ascontiguousarray(np.repeat(d, reps, axis=1).T)
+        # (H, 4 P): step k lies in the piece that candidate 4 p + m moves
+        piece = np.searchsorted(self.cuts, np.arange(H), side="right") - 1
+        self.moved = piece[:, None] == np.repeat(np.arange(P), 4)[None, :]
         self.plan_v = np.zeros((core.num, H))
         self.plan_d = np.zeros((core.num, H))
         self.warm = np.zeros(core.num, dtype=bool)
@@ -627,25 +630,32 @@ class _CarTrackSearch:
         best_v = np.where(warm, shift_v, v_fb[:, None])
         best_d = np.where(warm, shift_d, d_fb[:, None])
         dv, dd = self.step
+        rows = np.arange(n)
         for it in range(2):
-            cv, cd = [best_v[:, :, None]], [best_d[:, :, None]]
-            if it == 0:
-                cv += [np.broadcast_to(self.table_v, (n, H, S)),
-                       np.broadcast_to(v_fb[:, None, None], (n, H, 1))]
-                cd += [np.broadcast_to(self.table_d, (n, H, S)),
-                       np.broadcast_to(d_fb[:, None, None], (n, H, 1))]
-            for a, b in zip(self.cuts[:-1], self.cuts[1:], strict=True):
-                for sv, sd in ((dv, 0.0), (-dv, 0.0), (0.0, dd), (0.0, -dd)):
-                    pv, pd = best_v.copy(), best_d.copy()
-                    pv[:, a:b] = np.clip(pv[:, a:b] + sv, lo, hi)
-                    pd[:, a:b] = np.clip(pd[:, a:b] + sd, -self.psi_max, self.psi_max)
-                    cv.append(pv[:, :, None])
-                    cd.append(pd[:, :, None])
+            # the row's own plans: the best so far, (first pass) the feedback command held, and
+            # the best with one piece's speed or steering moved by +-step (clipped to range)
+            sv = np.tile([dv, -dv, 0.0, 0.0], self.pieces)
+            sd = np.tile([0.0, 0.0, dd, -dd], self.pieces)
+            bv, bd = best_v[:, :, None], best_d[:, :, None]
+            cv = [bv, np.broadcast_to(v_fb[:, None, None], (n, H, 1))] if it == 0 else [bv]
+            cd = [bd, np.broadcast_to(d_fb[:, None, None], (n, H, 1))] if it == 0 else [bd]
+            cv.append(np.where(self.moved, np.clip(bv + sv, lo, hi), bv))
+            cd.append(np.where(self.moved, np.clip(bd + sd, -self.psi_max, self.psi_max), bd))
             V, D = np.concatenate(cv, axis=2), np.concatenate(cd, axis=2)
-            cost = plan_costs(start, V, D, ref_xy, self.core.dt, self.wheelbase, self.rate)
-            j = np.argmin(cost, axis=1)
-            rows = np.arange(n)
-            best_v, best_d = V[rows, :, j], D[rows, :, j]
+            shared = (self.table_v, self.table_d) if it == 0 else None
+            cost = plan_costs(start, V, D, ref_xy, self.core.dt, self.wheelbase, self.rate,
+                              shared=shared)
+            if it == 0:  # candidate order: best, table, the rest (argmin keeps the first)
+                cost = np.concatenate([cost[:, S:S + 1], cost[:, :S], cost[:, S + 1:]], axis=1)
+                j = np.argmin(cost, axis=1)
+                own = np.where(j > S, j - S, 0)
+                table = (j >= 1) & (j <= S)
+                tj = np.clip(j - 1, 0, S - 1)
+                best_v = np.where(table[:, None], self.table_v[:, tj].T, V[rows, :, own])
+                best_d = np.where(table[:, None], self.table_d[:, tj].T, D[rows, :, own])
+            else:
+                j = np.argmin(cost, axis=1)
+                best_v, best_d = V[rows, :, j], D[rows, :, j]
             dv, dd = 0.5 * dv, 0.5 * dd
         self.plan_v[r], self.plan_d[r] = best_v, best_d
         self.warm[r] = True

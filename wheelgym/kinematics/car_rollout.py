@@ -5,9 +5,11 @@ several hundred ``H``-step plans of speed and steering angle per robot and contr
 starts the one closest to the reference; this is that simulation. Per robot a compiled loop
 over its plans side by side (vectorised), one argument reduction for each sine and cosine pair
 (:func:`wheelgym.models.elementwise.sincos_wide`, the body of
-:data:`~wheelgym.models.elementwise.sin` and ``cos``), no temporaries: the same bits as the same arithmetic in element-wise NumPy on
-those ufuncs (``tests/kinematics/test_car_rollout.py``), and the baseline labels states off
-the reference about 4x as fast (``benchmarks/car_track.py``, docs/baselines.md).
+:data:`~wheelgym.models.elementwise.sin` and ``cos``), no temporaries, and a table of plans
+that every robot scores passed once, not copied per robot: the same bits as the same
+arithmetic in element-wise NumPy on those ufuncs (``tests/kinematics/test_car_rollout.py``),
+and the baseline labels states off the reference about 4x as fast (``benchmarks/car_track.py``,
+docs/baselines.md).
 
 The model (``docs/physics/kinematic.md``): ``yawdot = v tan(psi) / l`` with the steering
 ``psi = delta`` (Bicycle) or turned toward ``delta`` at ``rate`` rad/s at most (Ackermann),
@@ -78,25 +80,33 @@ def _row(S, start, V, D, ref_xy, dt, wheelbase, rate, wide):  # pragma: no cover
 
 
 @njit(cache=True, error_model="numpy")
-def _k_plan_costs(start, V, D, ref_xy, dt, wheelbase, rate, cost):  # pragma: no cover
-    """Each row by :func:`_row`; a row where an angle reaches ``REDUCE_MAX`` again with
+def _k_plan_costs(start, V, D, ref_xy, TV, TD, dt, wheelbase, rate, cost):  # pragma: no cover
+    """Per row the shared plans ``TV, TD`` (``cost[:, :S]``), then the row's own ``V, D``
+    (``cost[:, S:]``), each by :func:`_row`; where an angle reaches ``REDUCE_MAX``, again with
     libm's sine and cosine beyond it (as :mod:`wheelgym.models.elementwise`)."""
     n, _, K = V.shape
-    S = np.empty((6, K))  # x, y, yaw, steering angle, cost, largest |angle|
+    Ks = TV.shape[1]
+    S = np.empty((6, max(K, Ks)))  # x, y, yaw, steering angle, cost, largest |angle|
     for i in range(n):
-        _row(S, start[i], V[i], D[i], ref_xy[i], dt, wheelbase, rate, False)
-        far = False
-        for j in range(K):
-            far |= S[5, j] >= REDUCE_MAX
-        if far:
-            _row(S, start[i], V[i], D[i], ref_xy[i], dt, wheelbase, rate, True)
-        for j in range(K):
-            cost[i, j] = S[4, j]
+        for shared in (True, False):
+            P, Q, c0, m = (TV, TD, 0, Ks) if shared else (V[i], D[i], Ks, K)
+            if m == 0:
+                continue
+            _row(S, start[i], P, Q, ref_xy[i], dt, wheelbase, rate, False)
+            far = False
+            for j in range(m):
+                far |= S[5, j] >= REDUCE_MAX
+            if far:
+                _row(S, start[i], P, Q, ref_xy[i], dt, wheelbase, rate, True)
+            for j in range(m):
+                cost[i, c0 + j] = S[4, j]
 
 
 def plan_costs(start: np.ndarray, V: np.ndarray, D: np.ndarray, ref_xy: np.ndarray,
-               dt: float, wheelbase: float, rate: float | None) -> np.ndarray:
-    """Sum over the horizon of the squared distance to the reference, for ``K`` plans a row.
+               dt: float, wheelbase: float, rate: float | None,
+               shared: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Sum over the horizon of the squared distance to the reference, for ``K`` plans a row
+    (and ``S`` plans shared by every row).
 
     | argument     | shape       | unit            | meaning                                    |
     |--------------|-------------|-----------------|--------------------------------------------|
@@ -107,15 +117,21 @@ def plan_costs(start: np.ndarray, V: np.ndarray, D: np.ndarray, ref_xy: np.ndarr
     | ``dt``       | -           | s               | control step                                |
     | ``wheelbase``| -           | m               | ``l``                                       |
     | ``rate``     | -           | rad/s           | steering-rate limit (Ackermann), or None    |
+    | ``shared``   | 2 x (H, S)  | m/s, rad        | speeds and steering angles of plans that    |
+    |              |             |                 | every row also scores (not copied per row)  |
 
-    ``psi`` (the current steering angle) is read with ``rate`` only. Returns ``(n, K)``
-    (m^2).
+    ``psi`` (the current steering angle) is read with ``rate`` only. Returns ``(n, S + K)``
+    (m^2): the shared plans' costs first (``S = 0`` without ``shared``).
     """
     V = np.ascontiguousarray(V, dtype=np.float64)
-    n, _, K = V.shape
-    cost = np.empty((n, K))
+    n, H, K = V.shape
+    if shared is None:
+        TV = TD = np.empty((H, 0))
+    else:
+        TV, TD = (np.ascontiguousarray(t, dtype=np.float64) for t in shared)
+    cost = np.empty((n, TV.shape[1] + K))
     _k_plan_costs(np.ascontiguousarray(start, dtype=np.float64), V,
                   np.ascontiguousarray(D, dtype=np.float64),
-                  np.ascontiguousarray(ref_xy, dtype=np.float64), float(dt), float(wheelbase),
-                  -1.0 if rate is None else float(rate), cost)
+                  np.ascontiguousarray(ref_xy, dtype=np.float64), TV, TD, float(dt),
+                  float(wheelbase), -1.0 if rate is None else float(rate), cost)
     return cost
