@@ -8,8 +8,8 @@ over its plans side by side (vectorised), one argument reduction for each sine a
 :data:`~wheelgym.models.elementwise.sin` and ``cos``), no temporaries, and a table of plans
 that every robot scores passed once, not copied per robot: the same bits as the same
 arithmetic in element-wise NumPy on those ufuncs (``tests/kinematics/test_car_rollout.py``),
-and the baseline labels states off the reference about 4x as fast (``benchmarks/car_track.py``,
-docs/baselines.md).
+and the baseline labels states off the reference several times as fast as with NumPy
+(``benchmarks/car_track.py``, docs/baselines.md).
 
 The model (``docs/physics/kinematic.md``): ``yawdot = v tan(psi) / l`` with the steering
 ``psi = delta`` (Bicycle) or turned toward ``delta`` at ``rate`` rad/s at most (Ackermann),
