@@ -81,9 +81,10 @@ def _row(S, start, V, D, ref_xy, dt, wheelbase, rate, wide):  # pragma: no cover
 
 @njit(cache=True, error_model="numpy")
 def _k_plan_costs(start, V, D, ref_xy, TV, TD, dt, wheelbase, rate, cost):  # pragma: no cover
-    """Per row the shared plans ``TV, TD`` (``cost[:, :S]``), then the row's own ``V, D``
-    (``cost[:, S:]``), each by :func:`_row`; where an angle reaches ``REDUCE_MAX``, again with
-    libm's sine and cosine beyond it (as :mod:`wheelgym.models.elementwise`)."""
+    """Per row the ``Ks`` shared plans ``TV, TD`` (``cost[:, :Ks]``), then the row's own
+    ``V, D`` (``cost[:, Ks:]``), each by :func:`_row` in the scratch array ``S``; where an
+    angle reaches ``REDUCE_MAX``, again with libm's sine and cosine beyond it (as
+    :mod:`wheelgym.models.elementwise`)."""
     n, _, K = V.shape
     Ks = TV.shape[1]
     S = np.empty((6, max(K, Ks)))  # x, y, yaw, steering angle, cost, largest |angle|
