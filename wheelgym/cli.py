@@ -585,10 +585,14 @@ def _cmd_pretrained(a: argparse.Namespace) -> int:
     csv_path = a.csv if a.csv is not None else DEFAULT_CSV
     limit = a.size_limit if a.size_limit is not None else SIZE_LIMIT_MB
     written = export_best(csv_path, [str(c) for c in a.configs] or None, out_root=a.root,
-                          size_limit_mb=limit)
+                          size_limit_mb=limit, log=_print)
     for path in written:
         card = json.loads((path / "card.json").read_text())
-        _print(f"{card['config']}: seed {card['seed']} ({card['n_timesteps']} steps) -> {path}")
+        nominal = card.get("nominal_success", {}).get("by_seed", {})
+        ranked = ("; nominal robot: " + ", ".join(f"seed {k} {100 * v:.0f}%"
+                                                   for k, v in nominal.items())) if nominal else ""
+        _print(f"{card['config']}: seed {card['seed']} ({card['n_timesteps']} steps) -> {path}"
+               f"{ranked}")
     return 0
 
 

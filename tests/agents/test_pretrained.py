@@ -171,6 +171,32 @@ def test_best_seed_order_success_then_rms_then_return():
     assert best_row(rows, "c")["seed"] == "1"  # a missing score ranks last
 
 
+def test_a_perturbed_config_ranks_tied_seeds_by_the_nominal_robot():
+    def row(seed, succ, ret, rms=""):
+        return {"config": "c", "seed": str(seed), "n_timesteps": "1000",
+                "agent_success": succ, "agent_rms": rms, "agent_return": ret}
+
+    nominal = {"0": 0.9, "1": 0.86, "2": 1.0, "3": 1.0, "4": 1.0}
+    asked: list[str] = []
+
+    def score(r):
+        asked.append(r["seed"])
+        return nominal[r["seed"]]
+
+    rows = [row(0, "1", "3"), row(1, "1", "9"), row(2, "0.9", "20"), row(3, "1", "1"),
+            row(4, "1", "0")]
+    assert best_row(rows, "c")["seed"] == "1"  # without it: the return
+    scored: dict[str, float] = {}
+    assert best_row(rows, "c", score, scored)["seed"] == "3"
+    # the tied seeds in the order of the return, up to the first at 100%; seed 2 is not tied
+    assert asked == ["1", "0", "3"] and scored == {"1": 0.86, "0": 0.9, "3": 1.0}
+    asked.clear()
+    rows = [row(0, "1", "3", "0.02"), row(1, "1", "9", "0.01")]
+    assert best_row(rows, "c", score)["seed"] == "1" and asked == []  # no tie: nothing scored
+    rows = [row(0, "1", "3"), row(1, "1", "9")]
+    assert best_row(rows, "c", lambda r: 0.5)["seed"] == "1"  # equal: the return decides
+
+
 def test_load_pretrained_acts_on_its_env(bench):
     agent, config = load_pretrained(NAME, bench.root)
     assert agent.obs_norm is not None and agent.obs_norm.training is False
@@ -372,3 +398,44 @@ def test_shipped_folder_is_under_the_size_limit():
         pytest.skip("no agents/pretrained folder")
     total = sum(p.stat().st_size for p in SHIPPED_ROOT.rglob("*") if p.is_file())
     assert total <= SIZE_LIMIT_MB * 1e6
+
+
+def test_export_of_a_perturbed_config_scores_its_tied_seeds_on_the_nominal_robot(bench, tmp_path,
+                                                                               capsys):
+    import shutil
+
+    from wheelgym.agents.evaluate import nominal_success
+
+    # the fixture's two runs as if trained under `medium`, tied on success
+    rows = []
+    for r in bench.rows:
+        run = tmp_path / "runs" / Path(r["run_dir"]).name
+        shutil.copytree(r["run_dir"], run)
+        config = load_config(run / "config.yml")
+        config.replace(env_kwargs={**config.env_kwargs, "perturbation": "medium"}).dump(
+            run / "config.yml")
+        rows.append({**r, "run_dir": str(run), "agent_success": "0.5"})
+    tied = tmp_path / "tied.csv"
+    with tied.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(COLUMNS))
+        w.writeheader()
+        w.writerows(rows)
+    out = tmp_path / "agents"
+    assert main(["pretrained", "export", "--csv", str(tied), "--root", str(out)]) == 0
+    card = read_card(NAME, out)
+    expected = {}
+    for r in rows:
+        config = load_config(Path(r["run_dir"]) / "config.yml")
+        agent = load_agent(Path(r["run_dir"]) / "model.zip", "ppo",
+                           Path(r["run_dir"]) / "vecnormalize.pkl")
+        expected[r["seed"]] = nominal_success(agent, config)
+    # the tiny agents reach no goal: both seeds scored, equal, so the return decides
+    assert card["nominal_success"] == {"episodes": 50, "by_seed": expected}
+    assert str(card["seed"]) == best_row(rows, NAME)["seed"]
+    printed = capsys.readouterr().out
+    assert "on the nominal robot (50 episodes" in printed and "nominal robot: seed" in printed
+    # a tied seed's run folder gone: refused, naming the seed and the way back
+    other = next(r for r in rows if str(r["seed"]) != str(card["seed"]))
+    shutil.rmtree(other["run_dir"])
+    with pytest.raises(ValueError, match=rf"seed {other['seed']}: seeds tied .* wheelgym bench"):
+        export_best(tied, out_root=tmp_path / "b")

@@ -9,7 +9,7 @@ import pytest
 
 import wheelgym  # noqa: F401  (registers the ids)
 from wheelgym.agents import robustness as rob
-from wheelgym.agents.evaluate import run_episode, run_episodes_vector
+from wheelgym.agents.evaluate import nominal_success, run_episode, run_episodes_vector
 from wheelgym.cli import main
 from wheelgym.envs.baseline import baseline
 
@@ -182,3 +182,23 @@ def test_wilson_interval_solves_its_defining_quadratic():
     assert wilson_interval(50, 50)[1] == 1.0 and wilson_interval(0, 50)[0] == 0.0
     with pytest.raises(ValueError, match="n must be >= 1"):
         wilson_interval(0, 0)
+
+
+def test_nominal_success_scores_the_agent_without_its_perturbation():
+    # SkidSteer track torque robust: trained and scored at `medium`, it leads its commands by
+    # the level's two-step delay and fails most episodes on the nominal robot (robustness.md)
+    name, episodes = "SkidSteer-track-torque-robust", 6
+    agent, config = rob.load_target(name)[1:]
+    assert config.env_kwargs["perturbation"] == "medium"
+    seeds = [100_000 + i for i in range(episodes)]
+    kw = {k: v for k, v in config.env_kwargs.items() if k != "perturbation"}
+    env = gym.make(config.env_id, **kw)
+    nominal = [run_episode(env, agent, s, record=False).success for s in seeds]
+    env.close()
+    env = gym.make(config.env_id, **config.env_kwargs)
+    medium = [run_episode(env, agent, s, record=False).success for s in seeds]
+    env.close()
+    assert sum(nominal) != sum(medium)  # the case tells the two apart
+    assert nominal_success(agent, config, episodes=episodes) == sum(nominal) / episodes
+    with pytest.raises(ValueError, match="episodes"):
+        nominal_success(agent, config, episodes=0)

@@ -52,6 +52,7 @@ __all__ = [
     "run_episode",
     "evaluate_policy_episodes",
     "run_episodes_vector",
+    "nominal_success",
     "summarize",
     "METRICS",
     "format_markdown",
@@ -341,6 +342,34 @@ def evaluate_policy_episodes(
                     deterministic=deterministic)
         for i, s in enumerate(seeds)
     ]
+
+
+def nominal_success(agent: Any, config: TrainConfig, *, episodes: int = 50,
+                    seed: int = 100_000) -> float:
+    """The success rate (0-1) of ``agent`` on the nominal robot: ``config``'s env with its
+    ``perturbation`` taken out (the robustness sweep's combined level ``none``), ``episodes``
+    episodes with seeds ``seed ..``, one batch of the native vector env
+    (:func:`run_episodes_vector`, deterministic actions).
+
+    What a robust agent keeps when the robot is the model; the export of a perturbed config
+    ranks tied seeds by it (:func:`wheelgym.agents.pretrained.best_row`).
+    """
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    from gymnasium.vector import AutoresetMode
+
+    from wheelgym.agents.common import ensure_registered
+    from wheelgym.envs.perturbation import Perturbation
+
+    ensure_registered(config.env_id)
+    kwargs = {**config.env_kwargs, "perturbation": Perturbation()}
+    venv = gym.make_vec(config.env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
+                        autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs)
+    try:
+        eps = run_episodes_vector(venv, agent, [seed + i for i in range(episodes)])
+    finally:
+        venv.close()
+    return sum(bool(e.success) for e in eps) / episodes
 
 
 def run_episodes_vector(venv: Any, policy: Any, seeds: Sequence[int], *,

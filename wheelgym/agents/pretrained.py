@@ -22,6 +22,12 @@ card.json            config name, algorithm, env id and kwargs, seed, training s
 The best seed of a config: highest ``agent_success``, then lowest ``agent_rms`` (where the
 task reports one), then highest ``agent_return``, then the lowest seed; only the rows with the
 config's largest training budget in the CSV compete (``--quick`` or ``--budget`` rows do not).
+A config trained under a ``perturbation`` (``configs/*-robust.yml``, scored at that level) breaks
+a tie on success and RMS by the success on the nominal robot before the return
+(:func:`wheelgym.agents.evaluate.nominal_success`, 50 episodes): a robust agent should also
+drive the robot it was not trained on. The tied seeds are scored in the order of the return,
+stopping at the first with 100%, so their run folders must be on the machine; the card records
+what was scored (``nominal_success``).
 Which configs to export (those that met their targets) is the caller's choice. The whole folder
 is kept under :data:`SIZE_LIMIT_MB`; an export that would pass it is refused before anything is
 written.
@@ -41,7 +47,7 @@ import math
 import os
 import shutil
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -60,6 +66,8 @@ __all__ = [
     "read_card",
     "export_best",
     "best_row",
+    "perturbed",
+    "NOMINAL_EPISODES",
     "slim_model",
 ]
 
@@ -75,6 +83,10 @@ CARD = "card.json"
 MODEL = "model.zip"
 STATS = "vecnormalize.pkl"
 CONFIG = "config.yml"
+
+#: Episodes of the nominal-robot score that ranks tied seeds of a perturbed config
+#: (:func:`best_row`; the robustness sweep's combined level ``none``, seeds 100000-100049).
+NOMINAL_EPISODES = 50
 
 #: Benchmark CSV columns copied into card.json as numbers (empty cells: ``null``).
 CARD_SCORES: tuple[str, ...] = (
@@ -158,13 +170,64 @@ def _rank(row: dict[str, str]) -> tuple[float, float, float, float]:
             -float(row["seed"]))
 
 
-def best_row(rows: Sequence[dict[str, str]], config: str) -> dict[str, str]:
-    """The best seed's row of ``config`` among its rows with the largest ``n_timesteps``."""
+def best_row(rows: Sequence[dict[str, str]], config: str,
+             nominal_success: Callable[[dict[str, str]], float] | None = None,
+             scored: dict[str, float] | None = None) -> dict[str, str]:
+    """The best seed's row of ``config`` among its rows with the largest ``n_timesteps``.
+
+    ``nominal_success`` (a row -> its agent's success on the nominal robot, 0-1): rows tied
+    with the best on success and RMS are ranked by it before the return (module docstring);
+    they are scored in the order of the return, stopping at the first with 1.0 (none after it
+    can rank higher). ``scored``: filled with seed -> the value of each row scored.
+    """
     mine = [r for r in rows if r["config"] == config]
     if not mine:
         raise ValueError(f"no rows of config {config!r}")
     budget = max(float(r["n_timesteps"]) for r in mine)
-    return max((r for r in mine if float(r["n_timesteps"]) == budget), key=_rank)
+    ranked = sorted((r for r in mine if float(r["n_timesteps"]) == budget), key=_rank,
+                    reverse=True)
+    tied = [r for r in ranked if _rank(r)[:2] == _rank(ranked[0])[:2]]
+    if nominal_success is None or len(tied) == 1:
+        return ranked[0]
+    best, best_value = tied[0], -math.inf
+    for r in tied:
+        value = float(nominal_success(r))
+        if scored is not None:
+            scored[r["seed"]] = value
+        if value > best_value:
+            best, best_value = r, value
+        if value >= 1.0:
+            break
+    return best
+
+
+def perturbed(config: TrainConfig) -> bool:
+    """Whether ``config`` trains (and the benchmark scores it) under a ``perturbation``."""
+    level = config.env_kwargs.get("perturbation")
+    return level is not None and level != "none"
+
+
+def _run_config(row: dict[str, str]) -> TrainConfig:
+    run = Path(row.get("run_dir") or "")
+    if not row.get("run_dir") or not (run / CONFIG).is_file():
+        raise ValueError(f"{row['config']} seed {row['seed']} (run folder {str(run)!r}): no "
+                         f"{CONFIG}; is the run folder on this machine?")
+    return load_run_config(run / CONFIG)
+
+
+def _run_nominal_success(row: dict[str, str]) -> float:
+    from wheelgym.agents.evaluate import nominal_success
+
+    run = Path(row.get("run_dir") or "")
+    if not (run / CONFIG).is_file() or not (run / MODEL).is_file():
+        raise ValueError(
+            f"{row['config']} seed {row['seed']}: seeds tied at the best success are ranked by "
+            f"their success on the nominal robot, which needs their run folders; "
+            f"{str(run)!r} has no {CONFIG} or {MODEL} (the benchmark retrains a seed to the same "
+            f"bits: wheelgym benchmark {row['config']} --seeds N)")
+    config = load_run_config(run / CONFIG)
+    agent = load_agent(run / MODEL, config.algo, run / STATS, device=config.device)
+    return nominal_success(agent, config, episodes=NOMINAL_EPISODES)
 
 
 def _size(path: Path) -> int:
@@ -219,6 +282,7 @@ def export_best(
     configs: Sequence[str | Path] | None = None,
     out_root: str | Path | None = None,
     size_limit_mb: float = SIZE_LIMIT_MB,
+    log: Callable[[str], None] | None = None,
 ) -> list[Path]:
     """Copy the best seed's run of each config of the results CSV into ``out_root``.
 
@@ -230,6 +294,8 @@ def export_best(
     from the CSV row; an existing folder of that name is replaced, others are kept. Refuses
     (``ValueError``, nothing written) when a run folder lacks a file or the folder's total
     (kept agents plus the new ones) would exceed ``size_limit_mb`` MB. Returns the folders.
+    A perturbed config's seeds tied at the best success are scored on the nominal robot first
+    (:func:`best_row`; a few seconds each), ``log`` told before each.
     """
     csv_path = Path(csv_path)
     rows = read_rows(csv_path)
@@ -244,13 +310,23 @@ def export_best(
         raise ValueError(f"pretrained root {str(root)!r} exists and is not a folder")
 
     plans: list[tuple[str, dict[str, str], TrainConfig, dict[str, Path]]] = []
+    nominal: dict[str, dict[str, float]] = {}
     for name in names:
         row = best_row(rows, name)
-        run = Path(row.get("run_dir") or "")
+        config = _run_config(row)
+        if perturbed(config):
+            nominal[name] = {}
+
+            def score(r: dict[str, str], name: str = name) -> float:
+                if log is not None:
+                    log(f"{name}: seed {r['seed']} on the nominal robot ({NOMINAL_EPISODES} "
+                        f"episodes; seeds tied at the best success are ranked by it)")
+                return _run_nominal_success(r)
+
+            row = best_row(rows, name, score, nominal[name])
+            config = _run_config(row)
+        run = Path(row["run_dir"])
         where = f"{name} seed {row['seed']} (run folder {str(run)!r})"
-        if not row.get("run_dir") or not (run / CONFIG).is_file():
-            raise ValueError(f"{where}: no {CONFIG}; is the run folder on this machine?")
-        config = load_run_config(run / CONFIG)
         files = {MODEL: run / MODEL, CONFIG: run / CONFIG}
         if config.normalize is not None:
             files[STATS] = run / STATS
@@ -274,12 +350,14 @@ def export_best(
     now = datetime.now(timezone.utc).isoformat(timespec="seconds")
     out: list[Path] = []
     for name, row, config, files in plans:
-        out.append(_write_agent(root, name, row, config, files, models[name], csv_path, now))
+        out.append(_write_agent(root, name, row, config, files, models[name], csv_path, now,
+                                nominal.get(name)))
     return out
 
 
 def _write_agent(root: Path, name: str, row: dict[str, str], config: TrainConfig,
-                 files: dict[str, Path], model: bytes, csv_path: Path, now: str) -> Path:
+                 files: dict[str, Path], model: bytes, csv_path: Path, now: str,
+                 nominal: dict[str, float] | None = None) -> Path:
     """One agent's folder under ``root``, written aside and moved into place (an existing
     one replaced); its ``config.yml`` in the current spelling."""
     tmp = root / f".{name}.tmp-{os.getpid()}"
@@ -310,6 +388,8 @@ def _write_agent(root: Path, name: str, row: dict[str, str], config: TrainConfig
             "exported_utc": now,
             "files": {f: (tmp / f).stat().st_size for f in files},
         }
+        if nominal:  # the tie-break of a perturbed config: seed -> success on the nominal robot
+            card["nominal_success"] = {"episodes": NOMINAL_EPISODES, "by_seed": nominal}
         (tmp / CARD).write_text(json.dumps(card, indent=2) + "\n")
         dest = root / name
         if dest.exists():
