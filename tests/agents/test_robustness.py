@@ -168,6 +168,35 @@ def test_results_page_is_the_committed_csv_written_out(tmp_path):
     assert main(["robustness"]) == 2  # neither a TARGET nor --page
 
 
+def test_robust_table_shows_the_robust_agent_on_the_nominal_robot():
+    from wheelgym.agents.robustness_page import render_page
+
+    def rows(target, none, medium, rms=("", "")):
+        return [{"target": target, "config": target, "axis": "combined", "level": lvl,
+                 "unit": "level", "policy": pol, "episodes": "50", "seed": "100000",
+                 "success": str(succ), "rms": r, "status": "ok"}
+                for pol in ("agent", "baseline-nom", "baseline-true")
+                for lvl, succ, r in (("none", none, rms[0]), ("medium", medium, rms[1]))]
+
+    import tempfile
+    from pathlib import Path
+
+    from wheelgym.agents.robustness import COLUMNS
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "r.csv"
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=COLUMNS, restval="")
+            w.writeheader()
+            w.writerows(rows("A-goal-robust", 86, 100) + rows("A-goal", 100, 98)
+                        + rows("B-track-robust", 20, 90, ("0.0696", "0.0248")))
+        page = render_page(path, Path(d) / "page.md")
+    line = next(ln for ln in page.splitlines() if ln.startswith("| A-goal-robust | success at medium"))
+    assert line.split(" | ")[2:5] == ["100% [93, 100]", "86%", "98% [90, 100]"]
+    line = next(ln for ln in page.splitlines() if ln.startswith("| B-track-robust | RMS medium"))
+    assert line.split(" | ")[2:4] == ["0.4x (25 mm)", "20% (70 mm)"]
+
+
 def test_wilson_interval_solves_its_defining_quadratic():
     """The endpoints are the two rates p with (k/n - p)^2 = z^2 p (1 - p) / n; 43 of 50 gives
     [0.7381, 0.9305] (scipy.stats.binomtest(43, 50).proportion_ci(method="wilson"))."""

@@ -88,13 +88,15 @@ def _robust(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
              f"success at `medium` (target >= {SUCCESS_MIN:.0f}%) with its 95% Wilson interval "
              "over the episodes (at 50 episodes one episode is 2 points); track: the RMS error at "
              "`medium` over the agent's own RMS without perturbation (target <= "
-             f"{RMS_FACTOR:g}x), with the RMS at `medium`.", "",
-             "| robust agent | criterion | robust agent | nominal-trained agent | baseline-nom | "
-             "baseline-true | target |", "|---|---|---|---|---|---|---|"]
+             f"{RMS_FACTOR:g}x), with the RMS at `medium`. The robust agent on the nominal "
+             "robot (level `none`): its success, and on track its RMS error.", "",
+             "| robust agent | criterion | robust agent | robust agent, nominal robot | "
+             "nominal-trained agent | baseline-nom | baseline-true | target |",
+             "|---|---|---|---|---|---|---|---|"]
     for robust, nominal in pairs:
         comb = _combined(by_target[robust])
         track = _is_track(by_target[robust])
-        cells = [_at_medium(comb, "agent", track)]
+        cells = [_at_medium(comb, "agent", track), _on_nominal(comb, track)]
         cells.append(_at_medium(_combined(by_target.get(nominal, [])), "agent", track))
         cells += [_at_medium(comb, p, track) for p in ("baseline-nom", "baseline-true")]
         met = _robust_met(comb, track)
@@ -133,6 +135,14 @@ def _at_medium(comb: dict[tuple[str, str], dict[str, str]], policy: str, track: 
     rms, nominal = csv_number(med["rms"]), csv_number(none["rms"])
     ratio = rms / nominal if nominal > 0 else math.inf
     return f"{ratio:.1f}x ({1000 * rms:.0f} mm)"
+
+
+def _on_nominal(comb: dict[tuple[str, str], dict[str, str]], track: bool) -> str:
+    none = comb.get(("agent", "none"))
+    if none is None:
+        return "n/a"
+    succ = f"{csv_number(none['success']):.0f}%"
+    return f"{succ} ({1000 * csv_number(none['rms']):.0f} mm)" if track else succ
 
 
 def _robust_met(comb: dict[tuple[str, str], dict[str, str]], track: bool) -> str:
