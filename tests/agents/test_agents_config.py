@@ -228,3 +228,47 @@ def test_config_yaml_loader_is_safe_load_without_aliases(tmp_path):
         safe_load_config_yaml(p)
     p.write_text("anchor_only: &a 3\nb: [1, 2]\n")  # an anchor without alias is harmless
     assert safe_load_config_yaml(p) == {"anchor_only": 3, "b": [1, 2]}
+
+
+@pytest.mark.parametrize("vec_env", ["dummy", "native"])
+def test_train_env_kwargs_set_the_training_envs_only(vec_env):
+    from wheelgym.agents.common import make_single_env
+    from wheelgym.agents.store import config_digest
+
+    data = _with("wheelgym", "env_kwargs", {"task": "goal", "perturbation": "medium"})
+    data["wheelgym"]["vec_env"] = vec_env
+    plain = parse_config(data)
+    data["wheelgym"]["train_env_kwargs"] = {
+        "perturbation": {"level": "medium", "action_delay": [0, 2]}}
+    cfg = parse_config(data)
+    assert plain.train_env_kwargs == {} and "train_env_kwargs" not in plain.to_dict()["wheelgym"]
+    assert parse_config(cfg.to_dict()) == cfg and config_digest(cfg) != config_digest(plain)
+    assert cfg.training_env_kwargs["perturbation"]["action_delay"] == [0, 2]
+    assert cfg.training_env_kwargs["task"] == "goal"
+
+    def delays(venv):
+        if vec_env == "native":
+            return venv.venv.venv.core.perturbation.action_delay
+        return venv.venv.envs[0].unwrapped.core.perturbation.action_delay
+
+    venv = make_train_env(cfg)
+    try:
+        assert delays(venv) == (0, 2)
+    finally:
+        venv.close()
+    env = make_single_env(cfg)  # evaluation: the task's env
+    assert env.unwrapped.core.perturbation.action_delay == (2, 2)
+    env.close()
+
+
+def test_train_env_kwargs_errors():
+    data = _with("wheelgym", "train_env_kwargs", [1, 2])
+    with pytest.raises(ValueError, match="train_env_kwargs must be a mapping"):
+        parse_config(data)
+    data = _with("wheelgym", "train_env_kwargs", {"task": "track"})
+    with pytest.raises(ValueError, match=r"may not set \['task'\]"):
+        parse_config(data)
+    # another observation space than the task's: refused when the training envs are built
+    cfg = parse_config(_with("wheelgym", "train_env_kwargs", {"action_history": 2}))
+    with pytest.raises(ValueError, match="change the observation space"):
+        make_train_env(cfg)

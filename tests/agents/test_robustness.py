@@ -191,9 +191,10 @@ def test_robust_table_shows_the_robust_agent_on_the_nominal_robot():
             w.writerows(rows("A-goal-robust", 86, 100) + rows("A-goal", 100, 98)
                         + rows("B-track-robust", 20, 90, ("0.0696", "0.0248")))
         page = render_page(path, Path(d) / "page.md")
-    line = next(ln for ln in page.splitlines() if ln.startswith("| A-goal-robust | success at medium"))
+    lines = page.splitlines()
+    line = next(ln for ln in lines if ln.startswith("| A-goal-robust | success at medium"))
     assert line.split(" | ")[2:5] == ["100% [93, 100]", "86%", "98% [90, 100]"]
-    line = next(ln for ln in page.splitlines() if ln.startswith("| B-track-robust | RMS medium"))
+    line = next(ln for ln in lines if ln.startswith("| B-track-robust | RMS medium"))
     assert line.split(" | ")[2:4] == ["0.4x (25 mm)", "20% (70 mm)"]
 
 

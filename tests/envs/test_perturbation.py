@@ -82,6 +82,20 @@ def test_parse_and_errors():
     assert p.action_delay == (2, 2) and p.obs_stuck == (0.1, 3)
     with pytest.raises(ValueError, match="valid levels"):
         parse_perturbation("extreme")
+    # a level with some fields replaced: the rest of the level as it is
+    p = parse_perturbation({"level": "medium", "action_delay": [0, 2]})
+    assert p.action_delay == (0, 2) and LEVELS["medium"].action_delay == (2, 2)
+    assert p == Perturbation(**{**{f: getattr(LEVELS["medium"], f) for f in
+                                   ("scales", "actuator_lag", "obs_noise", "action_noise",
+                                    "action_dropped", "action_stuck", "obs_dropped",
+                                    "obs_stuck")}, "action_delay": (0, 2)})
+    assert parse_perturbation({"level": "hard"}) == LEVELS["hard"]
+    with pytest.raises(ValueError, match="valid levels"):
+        parse_perturbation({"level": "extreme"})
+    with pytest.raises(TypeError, match="level name"):
+        parse_perturbation({"level": 2})
+    with pytest.raises(ValueError, match="must be 0 <= low <= high"):
+        parse_perturbation({"level": "medium", "action_delay": [3, 1]})
     with pytest.raises(ValueError, match="valid fields"):
         parse_perturbation({"delay": 2})
     with pytest.raises(ValueError, match="both zero or both positive"):

@@ -69,7 +69,10 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
     """The training ``VecEnv``: ``n_envs`` copies with episode statistics (incl. success).
 
     ``vec_env``: ``dummy`` (SB3 ``DummyVecEnv``), ``subproc`` (``SubprocVecEnv``) or ``native``
-    (wheelgym's batched vector env through its SB3 adapter, where available).
+    (wheelgym's batched vector env through its SB3 adapter, where available). The envs take
+    :attr:`~wheelgym.agents.config.TrainConfig.training_env_kwargs` (``env_kwargs`` with
+    ``train_env_kwargs``); ``ValueError`` if those give another observation or action space
+    than the task's env (:func:`make_single_env`), on which the agent is evaluated.
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
@@ -84,12 +87,14 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
                 f"{config.source}: vec_env 'native' needs wheelgym.vector.make_sb3_vec_env: {e}"
             ) from None
         try:
-            venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed, **config.env_kwargs)
+            venv = make_sb3_vec_env(config.env_id, num_envs=n, seed=seed,
+                                    **config.training_env_kwargs)
         except TypeError as e:
-            raise ValueError(f"{config.source}: env_kwargs {config.env_kwargs}: {e}") from e
+            raise ValueError(f"{config.source}: env_kwargs {config.training_env_kwargs}: {e}"
+                             ) from e
         venv.action_space.seed(seed)
     else:
-        env_id, kwargs = config.env_id, dict(config.env_kwargs)
+        env_id, kwargs = config.env_id, config.training_env_kwargs
         subproc = config.vec_env == "subproc"
 
         def factory(rank: int) -> Callable[[], gym.Env]:
@@ -109,10 +114,26 @@ def make_train_env(config: TrainConfig, n_envs: int | None = None, seed: int | N
         try:
             venv = cls([factory(i) for i in range(n)])
         except TypeError as e:
-            raise ValueError(f"{config.source}: env_kwargs {config.env_kwargs}: {e}") from e
+            raise ValueError(f"{config.source}: env_kwargs {kwargs}: {e}") from e
         venv.seed(seed)
+    if config.train_env_kwargs:
+        _check_same_spaces(config, venv)
     # SB3 logs rollout/success_rate itself from info["is_success"] at episode ends.
     return VecMonitor(venv)
+
+
+def _check_same_spaces(config: TrainConfig, venv: Any) -> None:
+    task = make_single_env(config)
+    try:
+        for what in ("observation_space", "action_space"):
+            if getattr(task, what) != getattr(venv, what):
+                venv.close()
+                raise ValueError(
+                    f"{config.source}: train_env_kwargs {config.train_env_kwargs} change the "
+                    f"{what.replace('_', ' ')} ({getattr(venv, what)}) from the task's "
+                    f"({getattr(task, what)}): the agent is evaluated on env_kwargs")
+    finally:
+        task.close()
 
 
 def wrap_normalize(venv, config: TrainConfig):

@@ -498,6 +498,7 @@ def _algo_table(algo: str) -> dict[str, Any]:
 _WHEELGYM_KEYS: dict[str, Any] = {
     "algo": _choice(*ALGOS),
     "env_kwargs": None,  # checked separately (a mapping; the environment validates values)
+    "train_env_kwargs": None,  # checked separately (a mapping)
     "seed": _int(0, hi=MAX_SEED),
     "eval_freq": _int(0),
     "eval_episodes": _int(1),
@@ -510,6 +511,7 @@ _WHEELGYM_KEYS: dict[str, Any] = {
 
 _WHEELGYM_DEFAULTS: dict[str, Any] = {
     "env_kwargs": {},
+    "train_env_kwargs": {},
     "seed": 0,
     "eval_freq": 0,
     "eval_episodes": 10,
@@ -525,30 +527,36 @@ _WHEELGYM_DEFAULTS: dict[str, Any] = {
 class TrainConfig:
     """A validated training configuration.
 
-    =============== ============================================================================
-    field           meaning
-    =============== ============================================================================
-    env_id          registered Gymnasium id, e.g. ``"wheelgym/ThreeWheel-v0"``
-    algo            one of :data:`ALGOS`
-    env_kwargs      keyword arguments of ``gym.make`` (task, action_mode, ...)
-    hyperparams     algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
-                    values as in the file; ``policy_kwargs.mean_bound`` selects
-                    :class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`)
-    n_envs          parallel environments in training
-    n_timesteps     total environment steps of the ``rl`` stage
-    normalize       ``None`` (no ``VecNormalize``) or its keyword arguments
-    noise           ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
-    seed            seed of the algorithm and of the training environments
-    eval_freq       environment steps between evaluations during training (0: none)
-    eval_episodes   episodes per evaluation
-    checkpoint_freq environment steps between checkpoints (0: none)
-    vec_env         ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
-    device          torch device
-    torch_threads   ``torch.set_num_threads`` value (1 is fastest for small MLPs)
-    pipeline        the stages as written (:mod:`wheelgym.agents.pipeline`); ``()``: none
-                    written, plain RL (:attr:`stages` is then one ``rl`` stage)
-    source          the file it came from (for messages), or ``"<dict>"``
-    =============== ============================================================================
+    ================ ============================================================================
+    field            meaning
+    ================ ============================================================================
+    env_id           registered Gymnasium id, e.g. ``"wheelgym/ThreeWheel-v0"``
+    algo             one of :data:`ALGOS`
+    env_kwargs       keyword arguments of ``gym.make`` (task, action_mode, ...): the task the
+                     agent is evaluated, scored and shipped on
+    train_env_kwargs keyword arguments replacing some of ``env_kwargs`` in the training envs
+                     only (every stage; the periodic evaluations use ``env_kwargs``): a
+                     training distribution wider than the task, e.g. a ``perturbation`` with
+                     the delay drawn from 0-2 steps for an agent scored at ``medium``; ``{}``:
+                     none. It may not change the observation or action space
+    hyperparams      algorithm keyword arguments incl. ``policy`` and ``policy_kwargs`` (plain
+                     values as in the file; ``policy_kwargs.mean_bound`` selects
+                     :class:`wheelgym.agents.bounded_policy.BoundedMeanPolicy`)
+    n_envs           parallel environments in training
+    n_timesteps      total environment steps of the ``rl`` stage
+    normalize        ``None`` (no ``VecNormalize``) or its keyword arguments
+    noise            ``None`` or ``(noise_type, noise_std)`` for SAC/TD3 action noise
+    seed             seed of the algorithm and of the training environments
+    eval_freq        environment steps between evaluations during training (0: none)
+    eval_episodes    episodes per evaluation
+    checkpoint_freq  environment steps between checkpoints (0: none)
+    vec_env          ``"dummy"``, ``"subproc"`` or ``"native"`` (wheelgym's batched env)
+    device           torch device
+    torch_threads    ``torch.set_num_threads`` value (1 is fastest for small MLPs)
+    pipeline         the stages as written (:mod:`wheelgym.agents.pipeline`); ``()``: none
+                     written, plain RL (:attr:`stages` is then one ``rl`` stage)
+    source           the file it came from (for messages), or ``"<dict>"``
+    ================ ============================================================================
     """
 
     env_id: str
@@ -568,6 +576,12 @@ class TrainConfig:
     torch_threads: int = 1
     pipeline: tuple = ()
     source: str = "<dict>"
+    train_env_kwargs: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def training_env_kwargs(self) -> dict:
+        """The training envs' keyword arguments: ``env_kwargs`` with ``train_env_kwargs``."""
+        return {**self.env_kwargs, **self.train_env_kwargs}
 
     @property
     def task(self) -> str | None:
@@ -670,6 +684,8 @@ class TrainConfig:
             "device": self.device,
             "torch_threads": self.torch_threads,
         }
+        if self.train_env_kwargs:  # absent unless set (config digests of the others unchanged)
+            wg["train_env_kwargs"] = copy.deepcopy(self.train_env_kwargs)
         if self.pipeline:  # absent for plain RL
             wg["pipeline"] = pipeline_mod.pipeline_to_list(self.pipeline)
         return {self.env_id: block, WHEELGYM_BLOCK: wg}
@@ -772,7 +788,18 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         env_kwargs = {}
     if not isinstance(env_kwargs, Mapping):
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: env_kwargs must be a mapping")
-    wg = {**_WHEELGYM_DEFAULTS, **wg, "env_kwargs": dict(env_kwargs)}
+    train_kwargs = wg.get("train_env_kwargs", {})
+    if train_kwargs is None:
+        train_kwargs = {}
+    if not isinstance(train_kwargs, Mapping):
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: train_env_kwargs must be a mapping of "
+                         f"env keyword arguments, got {train_kwargs!r}")
+    fixed = [k for k in ("task", "action_mode") if k in train_kwargs]
+    if fixed:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: train_env_kwargs may not set {fixed} "
+                         f"(the task the agent is scored on is env_kwargs')")
+    wg = {**_WHEELGYM_DEFAULTS, **wg, "env_kwargs": dict(env_kwargs),
+          "train_env_kwargs": dict(train_kwargs)}
 
     table = {**_ZOO_KEYS, **_algo_table(algo)}
     block = _check_block(block, table, f"{source}: {env_id} ({algo})")
@@ -815,6 +842,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
         torch_threads=wg["torch_threads"],
         pipeline=stages,
         source=source,
+        train_env_kwargs=wg["train_env_kwargs"],
     )
 
 

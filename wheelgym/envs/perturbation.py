@@ -28,7 +28,9 @@ obs_stuck      ``(prob, steps)``: each observation entry is held at its last del
 
 The env keyword ``perturbation`` takes a :class:`Perturbation`, a dict of its fields, or a
 level name of :data:`LEVELS` (``"easy"``, ``"medium"``, ``"hard"``; the table in
-``docs/topics/robustness.md``), or ``None`` (none). The parameter draws join the env's
+``docs/topics/robustness.md``), or ``None`` (none). A dict with the key ``level`` is that
+level with the dict's other fields replaced (``{"level": "medium", "action_delay": [0, 2]}``:
+``medium`` with the delay drawn from 0-2 steps). The parameter draws join the env's
 ``randomize`` draws (a group set in both raises), the delay and lag replace ``action_delay``
 and ``actuator_lag`` (set in both raises). Every draw comes from the env's ``np_random``
 (row i of a vector env from its own generator), in a fixed order: at a reset the parameters,
@@ -207,10 +209,17 @@ def parse_perturbation(value: Any) -> Perturbation | None:
         return level(value)
     if isinstance(value, Mapping):
         valid = [f.name for f in dataclasses.fields(Perturbation)]
-        unknown = [k for k in value if k not in valid]
+        unknown = [k for k in value if k not in valid and k != "level"]
         if unknown:
-            raise ValueError(f"unknown perturbation field(s) {unknown}; valid fields: {valid}")
-        return Perturbation(**value)
+            raise ValueError(f"unknown perturbation field(s) {unknown}; valid fields: "
+                             f"{valid} and 'level' (a level's fields replaced)")
+        fields = {k: v for k, v in value.items() if k != "level"}
+        if "level" in value:
+            if not isinstance(value["level"], str):
+                raise TypeError(f"perturbation level must be a level name of {list(LEVELS)}, "
+                                f"got {value['level']!r}")
+            return level(value["level"]).replace(**fields)
+        return Perturbation(**fields)
     raise TypeError(f"perturbation must be None, a Perturbation, a dict of its fields or a "
                     f"level name of {list(LEVELS)}, got {value!r}")
 

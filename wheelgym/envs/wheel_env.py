@@ -175,7 +175,8 @@ there once (the vector env takes the same).
 | perturbation   | None              | a ``Perturbation``, a dict of its fields or a level     |
 |                |                   | ("easy", "medium", "hard"): parameter scales, delay,    |
 |                |                   | lag, noise, dropped/stuck actions and observations      |
-|                |                   | (``wheelgym.envs.perturbation``)                        |
+|                |                   | (``wheelgym.envs.perturbation``); a dict with "level":  |
+|                |                   | that level with the dict's other fields replaced        |
 | action_history | 0                 | the last k (0-8) actions sent, clipped to [-1, 1],      |
 |                |                   | appended to the observation newest first (entries       |
 |                |                   | ``prev_action_t_j``), zeros at a reset; not touched by  |
