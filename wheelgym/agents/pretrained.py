@@ -223,8 +223,9 @@ def _run_nominal_success(row: dict[str, str]) -> float:
         raise ValueError(
             f"{row['config']} seed {row['seed']}: seeds tied at the best success are ranked by "
             f"their success on the nominal robot, which needs their run folders; "
-            f"{str(run)!r} has no {CONFIG} or {MODEL} (the benchmark retrains a seed to the same "
-            f"bits: wheelgym benchmark {row['config']} --seeds N)")
+            f"{str(run)!r} has no {CONFIG} or {MODEL} (retrain the seeds into a CSV of their "
+            f"own, wheelgym benchmark {row['config']} --seeds N --csv NEW.csv, and export from "
+            f"it: on another CPU a seed can give another model)")
     config = load_run_config(run / CONFIG)
     agent = load_agent(run / MODEL, config.algo, run / STATS, device=config.device)
     return nominal_success(agent, config, episodes=NOMINAL_EPISODES)
