@@ -752,6 +752,24 @@ def _plain(value: Any, where: str) -> None:
     raise ValueError(f"{where} must be a plain value, got {type(value).__name__}")
 
 
+def _env_kwargs_of(wg: Mapping, source: str) -> dict[str, dict]:
+    """``env_kwargs`` and ``train_env_kwargs`` of the ``wheelgym`` block as dicts (``None``:
+    empty), checked: mappings, and the training envs keep the task and action mode."""
+    out = {}
+    for key in ("env_kwargs", "train_env_kwargs"):
+        value = wg.get(key)
+        value = {} if value is None else value
+        if not isinstance(value, Mapping):
+            raise ValueError(f"{source}: {WHEELGYM_BLOCK}: {key} must be a mapping of env "
+                             f"keyword arguments, got {value!r}")
+        out[key] = dict(value)
+    fixed = [k for k in ("task", "action_mode") if k in out["train_env_kwargs"]]
+    if fixed:
+        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: train_env_kwargs may not set {fixed} "
+                         f"(the task the agent is scored on is env_kwargs')")
+    return out
+
+
 def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
     """Validate the file form (a mapping) and return a :class:`TrainConfig`.
 
@@ -783,23 +801,7 @@ def parse_config(data: Any, source: str = "<dict>") -> TrainConfig:
     if "algo" not in wg:
         raise ValueError(f"{source}: {WHEELGYM_BLOCK}: missing key 'algo'; choose from {ALGOS}")
     algo = wg["algo"]
-    env_kwargs = wg.get("env_kwargs", {})
-    if env_kwargs is None:
-        env_kwargs = {}
-    if not isinstance(env_kwargs, Mapping):
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: env_kwargs must be a mapping")
-    train_kwargs = wg.get("train_env_kwargs", {})
-    if train_kwargs is None:
-        train_kwargs = {}
-    if not isinstance(train_kwargs, Mapping):
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: train_env_kwargs must be a mapping of "
-                         f"env keyword arguments, got {train_kwargs!r}")
-    fixed = [k for k in ("task", "action_mode") if k in train_kwargs]
-    if fixed:
-        raise ValueError(f"{source}: {WHEELGYM_BLOCK}: train_env_kwargs may not set {fixed} "
-                         f"(the task the agent is scored on is env_kwargs')")
-    wg = {**_WHEELGYM_DEFAULTS, **wg, "env_kwargs": dict(env_kwargs),
-          "train_env_kwargs": dict(train_kwargs)}
+    wg = {**_WHEELGYM_DEFAULTS, **wg, **_env_kwargs_of(wg, source)}
 
     table = {**_ZOO_KEYS, **_algo_table(algo)}
     block = _check_block(block, table, f"{source}: {env_id} ({algo})")
