@@ -20,7 +20,8 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import wheelgym  # noqa: E402
-from wheelgym.agents.robustness import _make_venv, load_target  # noqa: E402
+from wheelgym.agents.evaluate import make_eval_venv  # noqa: E402
+from wheelgym.agents.robustness import load_target  # noqa: E402
 from wheelgym.envs.perturbation import level  # noqa: E402
 
 
@@ -64,7 +65,7 @@ def main() -> None:
     print("| policy | saturated | command at bound | torque clipped | lag input at limit | "
           "entries at bound | steps an episode |\n|---|---|---|---|---|---|---|")
     for name, make in policies.items():
-        venv = _make_venv(cfg, a.episodes, pert, "nominal")
+        venv = make_eval_venv(cfg, a.episodes, pert)
         r = split(venv, make(venv), a.seed)
         ent = " / ".join(f"{100 * x:.1f}" for x in r["entries"])
         print(f"| {name} | {100 * r['saturated']:.1f}% | {100 * r['command']:.1f}% | "

@@ -168,7 +168,7 @@ def test_results_page_is_the_committed_csv_written_out(tmp_path):
     assert main(["robustness"]) == 2  # neither a TARGET nor --page
 
 
-def test_robust_table_shows_the_robust_agent_on_the_nominal_robot():
+def test_robust_table_shows_the_robust_agent_on_the_nominal_robot(tmp_path):
     from wheelgym.agents.robustness_page import render_page
 
     def rows(target, none, medium, rms=("", "")):
@@ -178,19 +178,13 @@ def test_robust_table_shows_the_robust_agent_on_the_nominal_robot():
                 for pol in ("agent", "baseline-nom", "baseline-true")
                 for lvl, succ, r in (("none", none, rms[0]), ("medium", medium, rms[1]))]
 
-    import tempfile
-    from pathlib import Path
-
-    from wheelgym.agents.robustness import COLUMNS
-
-    with tempfile.TemporaryDirectory() as d:
-        path = Path(d) / "r.csv"
-        with path.open("w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=COLUMNS, restval="")
-            w.writeheader()
-            w.writerows(rows("A-goal-robust", 86, 100) + rows("A-goal", 100, 98)
-                        + rows("B-track-robust", 20, 90, ("0.0696", "0.0248")))
-        page = render_page(path, Path(d) / "page.md")
+    path = tmp_path / "r.csv"
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=rob.COLUMNS, restval="")
+        w.writeheader()
+        w.writerows(rows("A-goal-robust", 86, 100) + rows("A-goal", 100, 98)
+                    + rows("B-track-robust", 20, 90, ("0.0696", "0.0248")))
+    page = render_page(path, tmp_path / "page.md")
     lines = page.splitlines()
     line = next(ln for ln in lines if ln.startswith("| A-goal-robust | success at medium"))
     assert line.split(" | ")[2:5] == ["100% [93, 100]", "86%", "98% [90, 100]"]

@@ -43,7 +43,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from wheelgym.agents.common import make_single_env
+from wheelgym.agents.common import ensure_registered, make_single_env
 from wheelgym.agents.config import TrainConfig, load_run_config
 from wheelgym.agents.policies import RandomPolicy, load_agent, make_baseline
 
@@ -53,6 +53,8 @@ __all__ = [
     "evaluate_policy_episodes",
     "run_episodes_vector",
     "nominal_success",
+    "make_eval_venv",
+    "check_episodes",
     "summarize",
     "METRICS",
     "format_markdown",
@@ -344,6 +346,27 @@ def evaluate_policy_episodes(
     ]
 
 
+def check_episodes(episodes: Any) -> None:
+    """``ValueError`` unless ``episodes`` is an int >= 1."""
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+
+
+def make_eval_venv(config: TrainConfig, n: int, perturbation: Any,
+                   controller_model: str = "nominal") -> Any:
+    """``n`` rows of ``config``'s env as one native vector env for :func:`run_episodes_vector`
+    (autoreset on the next step), its ``perturbation`` replaced by ``perturbation`` and, when
+    not ``"nominal"``, the velocity mode's ``controller_model`` set."""
+    from gymnasium.vector import AutoresetMode
+
+    ensure_registered(config.env_id)
+    kwargs = {**config.env_kwargs, "perturbation": perturbation}
+    if controller_model != "nominal":
+        kwargs["controller_model"] = controller_model
+    return gym.make_vec(config.env_id, num_envs=n, vectorization_mode="vector_entry_point",
+                        autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs)
+
+
 def nominal_success(agent: Any, config: TrainConfig, *, episodes: int = 50,
                     seed: int = 100_000) -> float:
     """The success rate (0-1) of ``agent`` on the nominal robot: ``config``'s env with its
@@ -354,17 +377,10 @@ def nominal_success(agent: Any, config: TrainConfig, *, episodes: int = 50,
     What a robust agent keeps when the robot is the model; the export of a perturbed config
     ranks tied seeds by it (:func:`wheelgym.agents.pretrained.best_row`).
     """
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
-    from gymnasium.vector import AutoresetMode
-
-    from wheelgym.agents.common import ensure_registered
+    check_episodes(episodes)
     from wheelgym.envs.perturbation import Perturbation
 
-    ensure_registered(config.env_id)
-    kwargs = {**config.env_kwargs, "perturbation": Perturbation()}
-    venv = gym.make_vec(config.env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
-                        autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs)
+    venv = make_eval_venv(config, episodes, Perturbation())
     try:
         eps = run_episodes_vector(venv, agent, [seed + i for i in range(episodes)])
     finally:

@@ -203,8 +203,7 @@ def best_row(rows: Sequence[dict[str, str]], config: str,
 
 def perturbed(config: TrainConfig) -> bool:
     """Whether ``config`` trains (and the benchmark scores it) under a ``perturbation``."""
-    level = config.env_kwargs.get("perturbation")
-    return level is not None and level != "none"
+    return config.env_kwargs.get("perturbation") is not None
 
 
 def _run_config(row: dict[str, str]) -> TrainConfig:
@@ -324,8 +323,9 @@ def export_best(
                         f"episodes; seeds tied at the best success are ranked by it)")
                 return _run_nominal_success(r)
 
-            row = best_row(rows, name, score, nominal[name])
-            config = _run_config(row)
+            chosen = best_row(rows, name, score, nominal[name])
+            if chosen is not row:
+                row, config = chosen, _run_config(chosen)
         run = Path(row["run_dir"])
         where = f"{name} seed {row['seed']} (run folder {str(run)!r})"
         files = {MODEL: run / MODEL, CONFIG: run / CONFIG}

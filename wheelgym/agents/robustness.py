@@ -41,12 +41,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
-
 from wheelgym import resources
-from wheelgym.agents.common import ensure_registered
 from wheelgym.agents.config import TrainConfig, load_config
-from wheelgym.agents.evaluate import applicable_metrics, run_episodes_vector, summarize
+from wheelgym.agents.evaluate import (
+    applicable_metrics,
+    check_episodes,
+    make_eval_venv,
+    run_episodes_vector,
+    summarize,
+)
 from wheelgym.agents.policies import RandomPolicy, load_agent
 from wheelgym.envs.baseline import baseline
 from wheelgym.envs.perturbation import LEVELS, Perturbation
@@ -223,18 +226,6 @@ def _key(target: str, axis: str, level: Any, policy: str, episodes: int, seed: i
     return (target, axis, str(level), policy, str(episodes), str(seed))
 
 
-def _make_venv(config: TrainConfig, n: int, pert: Perturbation, controller_model: str) -> Any:
-    from gymnasium.vector import AutoresetMode
-
-    ensure_registered(config.env_id)
-    kwargs = dict(config.env_kwargs)
-    kwargs["perturbation"] = pert
-    if controller_model != "nominal":
-        kwargs["controller_model"] = controller_model
-    return gym.make_vec(config.env_id, num_envs=n, vectorization_mode="vector_entry_point",
-                        autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs)
-
-
 def _row(target: str, config: TrainConfig, axis: Axis, level: Any, policy: str,
          episodes: int, seed: int, eps: list | None, wall: float, status: str,
          metrics: Sequence[str] = ()) -> dict[str, Any]:
@@ -259,8 +250,7 @@ def _row(target: str, config: TrainConfig, axis: Axis, level: Any, policy: str,
 
 
 def _check_sweep_args(episodes: Any, policies: Sequence[str]) -> None:
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
+    check_episodes(episodes)
     bad = [p for p in policies if p not in POLICIES]
     if bad:
         raise ValueError(f"unknown policy {bad[0]!r}; valid policies: {list(POLICIES)}")
@@ -319,7 +309,7 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
                     cm = "true" if pol == "baseline-true" else "nominal"
                     try:
                         if cm not in envs:
-                            envs[cm] = _make_venv(config, episodes, pert, cm)
+                            envs[cm] = make_eval_venv(config, episodes, pert, cm)
                         venv = envs[cm]
                         policy = (agent if pol == "agent" else
                                   RandomPolicy(venv.action_space) if pol == "random" else
