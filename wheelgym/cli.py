@@ -315,9 +315,10 @@ def _parser() -> argparse.ArgumentParser:
     rb.add_argument("--csv", type=Path, default=None,
                     help="CSV to append to and resume from (default OUT/robustness.csv)")
     rb.add_argument("--drop-stale", action="store_true",
-                    help="remove the CSV's agent rows of TARGET that another model.zip made "
-                         "(column agent_sha: the agent was retrained or re-exported), then "
-                         "sweep the agent again")
+                    help="remove the CSV's stale rows of TARGET: agent rows that another "
+                         "model.zip made (column agent_sha: the agent was retrained or "
+                         "re-exported) and rows scored on another env (column env_sha: the "
+                         "config's env_kwargs changed), then sweep them again")
     rb.add_argument("--plots-only", action="store_true",
                     help="redraw the figures and the summary from the CSV, run nothing")
     rb.add_argument("--page", type=Path, default=None, metavar="PAGE.md",

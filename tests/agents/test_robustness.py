@@ -76,9 +76,11 @@ def test_a_changed_agent_s_rows_are_stale(tmp_path, capsys):
     sha = rob.agent_digest(AGENT)
     assert len(sha) == 12 and {r["agent_sha"] for r in rows if r["policy"] == "agent"} == {sha}
     assert {r["agent_sha"] for r in rows if r["policy"] != "agent"} == {""}
+    env = rob.env_digest(loaded[2])
+    assert {r["env_sha"] for r in rows} == {env}
     # rows written by another model.zip (a retrained or re-exported agent)
     text = r1["csv"].read_text()
-    r1["csv"].write_text(text.replace(f",{sha}\n", ",0123456789ab\n"))
+    r1["csv"].write_text(text.replace(f",{sha},{env}\n", f",0123456789ab,{env}\n"))
     with pytest.raises(ValueError, match="5 agent row.*--drop-stale"):
         rob.sweep(AGENT, loaded=loaded, **kw)
     # a sweep of the baseline alone leaves the agent's rows as they are
@@ -91,13 +93,36 @@ def test_a_changed_agent_s_rows_are_stale(tmp_path, capsys):
     assert r2["ran"] == 5 and r2["skipped"] == 5  # the agent again, not the baseline
     again = rob.read_rows(r1["csv"])
     assert len(again) == 10 and {r["agent_sha"] for r in again if r["policy"] == "agent"} == {sha}
-    # a CSV from before the column: the column is added, empty for the old rows, nothing reruns
+    # a CSV from before the digests: the columns are added, empty for the old rows, nothing
+    # reruns
     lines = r1["csv"].read_text().splitlines()
-    r1["csv"].write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines))
+    r1["csv"].write_text("".join(line.rsplit(",", 2)[0] + "\n" for line in lines))
     r3 = rob.sweep(AGENT, loaded=loaded, **kw)
     assert r3["ran"] == 0 and r3["skipped"] == 10
-    assert r1["csv"].read_text().splitlines()[0].endswith(",status,agent_sha")
-    assert {r["agent_sha"] for r in rob.read_rows(r1["csv"])} == {""}
+    assert r1["csv"].read_text().splitlines()[0].endswith(",status,agent_sha,env_sha")
+    assert {(r["agent_sha"], r["env_sha"]) for r in rob.read_rows(r1["csv"])} == {("", "")}
+
+
+def test_rows_of_another_env_are_stale(tmp_path):
+    """Every row records a digest of the env its policy was scored on: after the config's
+    env_kwargs change (here a reward weight, which changes the return and nothing else), the
+    baseline's rows are stale as well as the agent's."""
+    import dataclasses
+
+    kw = dict(out=tmp_path, episodes=2, axes=["action_delay"], policies=("baseline-nom",))
+    name, agent, config = rob.load_target(AGENT)
+    r1 = rob.sweep(AGENT, loaded=(name, agent, config), **kw)
+    changed = dataclasses.replace(config, env_kwargs={**config.env_kwargs,
+                                                      "reward_weights": {"progress": 2.0}})
+    assert rob.env_digest(changed) != rob.env_digest(config)
+    with pytest.raises(ValueError, match="5 row.*another env.*env_sha.*--drop-stale"):
+        rob.sweep(AGENT, loaded=(name, agent, changed), **kw)
+    r2 = rob.sweep(AGENT, loaded=(name, agent, changed), drop_stale=True, **kw)
+    assert r2["ran"] == 5 and r2["skipped"] == 0
+    old, new = ({r["level"]: r for r in x["rows"]} for x in (r1, r2))
+    assert {r["env_sha"] for r in new.values()} == {rob.env_digest(changed)}
+    assert all(old[lv]["success"] == new[lv]["success"] for lv in old)
+    assert any(old[lv]["return"] != new[lv]["return"] for lv in old)
 
 
 def test_cli_robustness(tmp_path, capsys):
@@ -124,8 +149,89 @@ def test_axes_per_robot():
     names = [a.name for a in rob.applicable_axes(cfg)]
     assert "wheel_radius" in names and "mass" not in names and "combined" in names
     for a in rob.AXES.values():  # each axis holds its nominal level
-        assert ("none" if a.name == "combined" else 0.0 if a.unit in ("steps", "s", "m")
-                or a.name.startswith(("obs", "action")) else 1.0) in a.levels, a.name
+        nominal = {"combined": "none", "medium_without": "nothing"}.get(a.name)
+        if nominal is None:
+            nominal = 0.0 if a.unit in ("steps", "s", "m") or a.name.startswith(
+                ("obs", "action")) else 1.0
+        assert nominal in a.levels, a.name
+
+
+def test_medium_without_removes_one_component():
+    """Each level of the axis medium_without is medium with exactly the fields of one
+    component changed, to values that change nothing; "nothing" is medium."""
+    import dataclasses
+
+    from wheelgym.envs.perturbation import FAULT_FIELDS, LEVELS
+
+    med = LEVELS["medium"]
+    fields = {
+        "parameters": {"scales"}, "action_delay": {"action_delay"},
+        "actuator_lag": {"actuator_lag"}, "obs_noise": {"obs_noise"},
+        "action_noise": {"action_noise"}, "signal_faults": set(FAULT_FIELDS)}
+    assert rob.medium_without("nothing") == med
+    assert set(rob.MEDIUM_COMPONENTS) == {"nothing", *fields}
+    for comp, changed in fields.items():
+        p = rob.medium_without(comp)
+        diff = {f.name for f in dataclasses.fields(p)
+                if getattr(p, f.name) != getattr(med, f.name)}
+        assert diff == changed, comp
+    par = rob.medium_without("parameters").scales
+    assert set(par) == set(med.scales)
+    assert all(v == ((0.0, 0.0) if g == "x_icr" else (1.0, 1.0)) for g, v in par.items())
+    assert rob.medium_without("action_delay").action_delay == (0, 0)
+    assert rob.medium_without("actuator_lag").actuator_lag == 0.0
+    assert rob.medium_without("obs_noise").obs_noise == rob.VANISHING < 1e-200
+    faults = rob.medium_without("signal_faults")
+    assert all(getattr(faults, f) == (rob.VANISHING, getattr(med, f)[1]) for f in FAULT_FIELDS)
+    with pytest.raises(ValueError, match="valid components"):
+        rob.medium_without("friction")
+
+
+def test_medium_without_pairs_each_episode_with_medium(tmp_path):
+    """The axis keeps the removed component's random draws: its level "nothing" gives the
+    combined medium's rows, a baseline (which reads the state) scores exactly as at medium
+    without an observation component, and without the parameters the nominal-model baseline
+    is the true-model one. (With the draws gone, the action faults would strike other steps.)"""
+    r = rob.sweep(AGENT, out=tmp_path, episodes=4, axes=["combined", "medium_without"],
+                  policies=("baseline-nom", "baseline-true"), loaded=rob.load_target(AGENT))
+    rows = {(x["axis"], x["level"], x["policy"]): x for x in r["rows"]}
+    cols = ("success", "energy", "return", "length", "saturation")
+
+    def same(a, b):
+        return all(rows[a][c] == rows[b][c] for c in cols)
+
+    for pol in ("baseline-nom", "baseline-true"):
+        assert same(("medium_without", "nothing", pol), ("combined", "medium", pol))
+        assert same(("medium_without", "obs_noise", pol), ("combined", "medium", pol))
+        assert not same(("medium_without", "action_delay", pol), ("combined", "medium", pol))
+    assert same(("medium_without", "parameters", "baseline-nom"),
+                ("medium_without", "parameters", "baseline-true"))
+    assert not same(("combined", "medium", "baseline-nom"), ("combined", "medium", "baseline-true"))
+    # the figures draw the unordered axis; the first-failure table leaves it out
+    assert {p.name for p in rob.plot(r["csv"])} == {f"{AGENT}-success.png"}
+    assert "medium_without" not in rob.summary_table(r["csv"])
+
+
+def test_page_shows_what_each_component_of_medium_costs(tmp_path):
+    from wheelgym.agents.robustness_page import render_page
+
+    values = {"nothing": 78, "parameters": 92, "action_delay": 100, "actuator_lag": 92,
+              "obs_noise": 78, "action_noise": 90, "signal_faults": 86}
+    path = tmp_path / "r.csv"
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=rob.COLUMNS, restval="")
+        w.writeheader()
+        w.writerows({"target": "A-goal-torque", "config": "A-goal-torque",
+                     "axis": "medium_without", "level": comp, "unit": "component removed",
+                     "policy": pol, "episodes": "50", "seed": "100000",
+                     "success": str(s - (10 if pol == "agent" else 0)), "status": "ok"}
+                    for pol in ("agent", "baseline-nom") for comp, s in values.items())
+    lines = render_page(path, tmp_path / "page.md").splitlines()
+    at = lines.index("## What `medium` costs, component by component")
+    row = next(ln for ln in lines[at:] if ln.startswith("| A-goal-torque | "))
+    assert row.split(" | ")[1:] == ["68%", "82%", "**90%**", "82%", "68%", "80%", "76% |"]
+    row = next(ln for ln in lines if ln.startswith("| baseline-nom | 78%"))
+    assert row.split(" | ")[3] == "**100%**"
 
 
 def _comb_rows(target: str, pol: str, values: dict[str, tuple[float, float | None]]):

@@ -2,8 +2,10 @@
 
 ``wheelgym robustness TARGET`` (:func:`sweep`): TARGET is a shipped agent's name
 (``agents/pretrained/``) or a run folder. For each axis of :data:`AXES` that the robot has, alone
-over its levels, and for the combined levels ``easy``, ``medium``, ``hard``
-(``wheelgym.envs.perturbation.LEVELS``), four policies are scored on the same seeds:
+over its levels, for the combined levels ``easy``, ``medium``, ``hard``
+(``wheelgym.envs.perturbation.LEVELS``), and for ``medium`` with one of its components removed
+at a time (axis ``medium_without``: what each component costs), four policies are scored on the
+same seeds:
 
 ============== =============================================================================
 policy         what it is
@@ -21,11 +23,13 @@ Each (level, policy) runs all its episodes as one batch of the native vector env
 to the CSV (:data:`COLUMNS`): the metrics of :mod:`wheelgym.agents.evaluate` as mean and
 standard deviation over episodes. A row already in the CSV (same target, axis, level, policy,
 episodes and seed) is not run again, so an interrupted sweep resumes. The agent's rows record
-a digest of its ``model.zip`` (``agent_sha``): after the agent is retrained or re-exported its
-old rows are stale, and the sweep refuses to mix them with new ones until ``drop_stale``
-removes them (rows from before the column, with it empty, are kept). :func:`plot` draws success,
-RMS tracking error (``track``) and energy (robots with motors) against each axis from the CSV,
-the policies as lines (``docs/topics/robustness.md``).
+a digest of its ``model.zip`` (``agent_sha``), and every row a digest of the env the policies
+are scored on (``env_sha``: the config's env id and ``env_kwargs``). After the agent is
+retrained or re-exported its old rows are stale, and after its config's env changed (a reward
+weight, a history) all the target's rows are: the sweep refuses to mix them with new ones until
+``drop_stale`` removes them (rows from before a column, with it empty, are kept).
+:func:`plot` draws success, RMS tracking error (``track``) and energy (robots with motors)
+against each axis from the CSV, the policies as lines (``docs/topics/robustness.md``).
 """
 
 from __future__ import annotations
@@ -52,9 +56,10 @@ from wheelgym.agents.evaluate import (
 )
 from wheelgym.agents.policies import RandomPolicy, load_agent
 from wheelgym.envs.baseline import baseline
-from wheelgym.envs.perturbation import LEVELS, Perturbation
+from wheelgym.envs.perturbation import FAULT_FIELDS, LEVELS, Perturbation
 
-__all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "agent_digest",
+__all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "agent_digest", "env_digest",
+           "MEDIUM_COMPONENTS", "medium_without",
            "applicable_axes", "sweep",
            "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT", "fails",
            "SUCCESS_MIN", "RMS_FACTOR", "csv_number"]
@@ -74,6 +79,9 @@ class Axis:
     unit: str
     make: Callable[[Any], Perturbation]
     group: str | None = None  # the randomisation group it needs (None: every robot)
+    #: levels that are not ordered from a nominal one (``medium_without``): no "first level
+    #: failing", markers without lines in the figures
+    ablation: bool = False
 
 
 def _scale(group: str) -> Callable[[Any], Perturbation]:
@@ -82,6 +90,46 @@ def _scale(group: str) -> Callable[[Any], Perturbation]:
 
 def _fault(field: str, steps: int) -> Callable[[Any], Perturbation]:
     return lambda p: Perturbation(**{field: (float(p), steps if p > 0 else 0)})
+
+
+#: The components of ``medium`` that the axis ``medium_without`` removes, one a level
+#: (``"nothing"``: ``medium`` itself).
+MEDIUM_COMPONENTS = ("nothing", "parameters", "action_delay", "actuator_lag", "obs_noise",
+                     "action_noise", "signal_faults")
+
+
+#: The magnitude that stands for a removed random component in :func:`medium_without`: its
+#: draws stay, its effect is below float32's (and the dynamics') resolution.
+VANISHING = 1e-300
+
+
+def medium_without(component: str) -> Perturbation:
+    """The ``medium`` level with one component removed: ``"parameters"`` (every scale at 1x,
+    ``x_icr`` at +0), ``"signal_faults"`` (dropped and stuck actions and observations), or the
+    field of that name (``action_delay``, ``actuator_lag``, ``obs_noise``, ``action_noise``);
+    ``"nothing"``: ``medium``.
+
+    Paired with ``medium``: a removed component keeps its random draws, so each episode draws
+    its goal, parameters and faults as at ``medium``. The scales become 1x (a draw from
+    ``[1, 1]``); the noises and the faults' probabilities become :data:`VANISHING` (a fault
+    never starts, a noise adds nothing a float32 observation or the dynamics can hold). The
+    delay and the lag draw nothing. So a policy that reads the state (the baselines) scores
+    exactly as at ``medium`` without an observation component.
+    """
+    med = LEVELS["medium"]
+    if component not in MEDIUM_COMPONENTS:
+        raise ValueError(f"unknown component {component!r}; valid components: "
+                         f"{list(MEDIUM_COMPONENTS)}")
+    if component == "nothing":
+        return med
+    if component == "parameters":
+        return med.replace(scales={g: (0.0, 0.0) if g == "x_icr" else (1.0, 1.0)
+                                   for g in med.scales})
+    if component == "signal_faults":
+        return med.replace(**{f: (VANISHING, getattr(med, f)[1]) for f in FAULT_FIELDS})
+    if component in ("obs_noise", "action_noise"):
+        return med.replace(**{component: VANISHING})
+    return med.replace(**{component: 0})
 
 
 #: The single axes, each over five levels including the nominal one (1x, or 0).
@@ -114,13 +162,15 @@ AXES: dict[str, Axis] = {a.name: a for a in (
          _fault("obs_stuck", 3)),
     Axis("combined", ("none", "easy", "medium", "hard"), "level",
          lambda n: Perturbation() if n == "none" else LEVELS[n]),
+    Axis("medium_without", MEDIUM_COMPONENTS, "component removed", medium_without,
+         ablation=True),
 )}
 
 #: The CSV's columns, in order (metrics: mean and sd over the level's episodes).
 COLUMNS = ("target", "config", "axis", "level", "unit", "policy", "episodes", "seed",
            "success", "success_sd", "rms", "rms_sd", "energy", "energy_sd", "return",
            "return_sd", "peak_torque", "saturation", "length", "numerical_failures", "wall_s",
-           "status", "agent_sha")
+           "status", "agent_sha", "env_sha")
 
 _METRIC_COLS = {"success": "success", "rms_tracking_error": "rms", "energy": "energy",
                 "ret": "return"}
@@ -158,24 +208,44 @@ def agent_digest(target: str | Path) -> str:
     return hashlib.sha256(model.read_bytes()).hexdigest()[:12]
 
 
-def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool) -> set[tuple]:
-    """The keys of the rows done, after adding the ``agent_sha`` column to a CSV from before it
-    and dropping (``drop_stale``) the target's agent rows of another model, or refusing them."""
+def env_digest(config: TrainConfig) -> str:
+    """The first 12 hex digits of the SHA-256 of the config's env id and ``env_kwargs``: the
+    ``env_sha`` of its target's rows (every policy is scored on that env)."""
+    text = json.dumps({"env_id": config.env_id, "env_kwargs": config.env_kwargs},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool,
+            env_sha: str = "") -> set[tuple]:
+    """The keys of the rows done, after adding the digest columns to a CSV from before them
+    and dropping (``drop_stale``) the target's stale rows, or refusing them: agent rows of
+    another model (``agent_sha`` other than ``sha``) and rows of another env (``env_sha``
+    other than ``env_sha``). An empty digest, in the CSV or given, judges nothing."""
     if not csv_path.is_file():
         return set()
     with csv_path.open(newline="") as f:
         reader = csv.DictReader(f)
         header, rows = tuple(reader.fieldnames or ()), list(reader)
-    if header != COLUMNS and header != COLUMNS[:-1]:
+    if header not in (COLUMNS, COLUMNS[:-1], COLUMNS[:-2]):
         raise ValueError(f"{csv_path}: not a robustness CSV (its columns are not {list(COLUMNS)})")
-    stale = [r for r in rows if r["target"] == name and r["policy"] == "agent"
-             and r.get("agent_sha") and r["agent_sha"] != sha] if sha else []
-    if stale and not drop_stale:
-        raise ValueError(f"{csv_path} holds {len(stale)} agent row(s) of {name!r} from another "
-                         f"model.zip than its {sha} (column agent_sha); give --drop-stale to "
-                         f"remove them and sweep the agent again, or another --csv")
-    if stale or header != COLUMNS:
-        gone = {id(r) for r in stale}
+    mine = [r for r in rows if r["target"] == name]
+    stale_agent = [r for r in mine if r["policy"] == "agent" and r.get("agent_sha")
+                   and r["agent_sha"] != sha] if sha else []
+    stale_env = [r for r in mine if r.get("env_sha") and r["env_sha"] != env_sha
+                 ] if env_sha else []
+    if (stale_agent or stale_env) and not drop_stale:
+        what = []
+        if stale_agent:
+            what.append(f"{len(stale_agent)} agent row(s) of {name!r} from another model.zip "
+                        f"than its {sha} (column agent_sha)")
+        if stale_env:
+            what.append(f"{len(stale_env)} row(s) of {name!r} scored on another env than its "
+                        f"config's {env_sha} (column env_sha: env id and env_kwargs)")
+        raise ValueError(f"{csv_path} holds {' and '.join(what)}; give --drop-stale to remove "
+                         f"them and sweep again, or another --csv")
+    gone = {id(r) for r in stale_agent + stale_env}
+    if gone or header != COLUMNS:
         keep = [r for r in rows if id(r) not in gone]
         with csv_path.open("w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
@@ -256,6 +326,25 @@ def _check_sweep_args(episodes: Any, policies: Sequence[str]) -> None:
         raise ValueError(f"unknown policy {bad[0]!r}; valid policies: {list(POLICIES)}")
 
 
+def _score(config: TrainConfig, agent: Any, pol: str, pert: Perturbation,
+           envs: dict[str, Any], seeds: list[int]) -> tuple[list | None, str, tuple[str, ...]]:
+    """``(episodes, status, metrics)`` of policy ``pol`` on ``config``'s env under ``pert``,
+    one batch of ``len(seeds)`` episodes; ``envs`` caches the level's vector envs by the
+    controller's model. A level the model cannot be built or integrated at: ``(None,
+    "invalid: ...", ())``."""
+    cm = "true" if pol == "baseline-true" else "nominal"
+    try:
+        if cm not in envs:
+            envs[cm] = make_eval_venv(config, len(seeds), pert, cm)
+        venv = envs[cm]
+        policy = (agent if pol == "agent" else RandomPolicy(venv.action_space)
+                  if pol == "random" else baseline(venv, model=cm))
+        eps = run_episodes_vector(venv, policy, seeds)
+        return eps, "ok", ("ret", *applicable_metrics(venv))
+    except ValueError as e:  # e.g. a level the integrator cannot step
+        return None, "invalid: " + " ".join(str(e).split())[:200], ()
+
+
 def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | Path | None = None,
           episodes: int = 50, seed: int = 100_000, axes: Sequence[str] | None = None,
           policies: Sequence[str] = POLICIES, log: Callable[[str], None] | None = None,
@@ -277,8 +366,9 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "robustness.csv" if csv_path is None else Path(csv_path)
     sha = agent_digest(target)
+    env_sha = env_digest(config)
     # ("": a sweep without the agent neither judges nor drops its rows)
-    done = _resume(csv_path, name, sha if "agent" in policies else "", drop_stale)
+    done = _resume(csv_path, name, sha if "agent" in policies else "", drop_stale, env_sha)
     new_file = not csv_path.is_file()
     seeds = [seed + i for i in range(episodes)]
     cache: dict[tuple[str, str], dict[str, Any]] = {}  # (policy, perturbation) -> row
@@ -306,23 +396,11 @@ def sweep(target: str | Path, *, out: str | Path = DEFAULT_OUT, csv_path: str | 
                         ran += 1
                         continue
                     t0 = time.perf_counter()
-                    cm = "true" if pol == "baseline-true" else "nominal"
-                    try:
-                        if cm not in envs:
-                            envs[cm] = make_eval_venv(config, episodes, pert, cm)
-                        venv = envs[cm]
-                        policy = (agent if pol == "agent" else
-                                  RandomPolicy(venv.action_space) if pol == "random" else
-                                  baseline(venv, model=cm))
-                        eps = run_episodes_vector(venv, policy, seeds)
-                        metrics = ("ret", *applicable_metrics(venv))
-                        status = "ok"
-                    except ValueError as e:  # e.g. a level the integrator cannot step
-                        eps, status = None, "invalid: " + " ".join(str(e).split())[:200]
-                        metrics = ()
+                    eps, status, metrics = _score(config, agent, pol, pert, envs, seeds)
                     row = _row(name, config, axis, level, pol, episodes, seed, eps,
                                time.perf_counter() - t0, status, metrics)
                     row["agent_sha"] = sha if pol == "agent" else ""
+                    row["env_sha"] = env_sha
                     cache[ck] = row
                     w.writerow(row)
                     f.flush()
@@ -390,8 +468,11 @@ def plot(csv_path: str | Path, out: str | Path | None = None,
                     xs = [i for i, v in enumerate(lv) if v in pts]
                     ys = [pts[lv[i]] for i in xs]
                     c, m = _STYLE[pol]
-                    ax.plot(xs, ys, color=c, marker=m, ms=3, lw=1, label=pol)
-                ax.set_xticks(range(len(lv)), lv, fontsize=6)
+                    ax.plot(xs, ys, color=c, marker=m, ms=3, lw=1, label=pol,
+                            ls="none" if axis.ablation else "-")
+                ax.set_xticks(range(len(lv)), lv, fontsize=6,
+                              rotation=40 if axis.ablation else 0, ha="right" if axis.ablation
+                              else "center")
                 ax.tick_params(labelsize=6)
                 ax.set_title(f"{ax_name} [{axis.unit}]", fontsize=7)
                 if col == "rms":
@@ -424,14 +505,15 @@ def _save_small(fig: Any, path: Path) -> None:
 def summary_table(csv_path: str | Path, targets: Sequence[str] | None = None) -> str:
     """Markdown: per target and policy, the first level of each axis (from the nominal
     outwards) at which success falls under 90% (goal) or the RMS exceeds twice the policy's
-    nominal RMS (track); ``-`` where it never does within the levels swept."""
+    nominal RMS (track); ``-`` where it never does within the levels swept. (Not of the
+    ablation axes, whose levels have no order.)"""
     rows = [r for r in read_rows(csv_path) if r.get("status") == "ok"]
     names = sorted({r["target"] for r in rows}) if targets is None else list(targets)
     lines = []
     for name in names:
         mine = [r for r in rows if r["target"] == name]
         track = any(r["rms"] for r in mine)
-        axes = [a for a in AXES if any(r["axis"] == a for r in mine)]
+        axes = [a for a in AXES if not AXES[a].ablation and any(r["axis"] == a for r in mine)]
         lines += [f"**{name}** ({'RMS > 2x nominal' if track else 'success < 90%'}):", "",
                   "| policy | " + " | ".join(axes) + " |",
                   "|---|" + "---|" * len(axes)]

@@ -5,9 +5,10 @@
 :mod:`wheelgym.agents.robustness` into Markdown: a summary of the combined level at which each
 policy falls (success under 90% on goal, the RMS tracking error over twice the policy's own
 nominal RMS on track), the robust agents (``configs/*-robust.yml``, trained under the ``medium``
-level) against the agents trained on the nominal robot, and per agent the combined levels, the
-first failing level of every axis and its figures. Nothing on the page is typed by hand, so it
-is never staler than the CSV.
+level) against the agents trained on the nominal robot, what each component of ``medium`` costs
+(axis ``medium_without``), and per agent the combined levels, ``medium`` without each
+component, the first failing level of every axis and its figures. Nothing on the page is typed
+by hand, so it is never staler than the CSV.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from wheelgym.agents.robustness import (
+    MEDIUM_COMPONENTS,
     POLICIES,
     RMS_FACTOR,
     SUCCESS_MIN,
@@ -105,6 +107,72 @@ def _robust(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
     return lines + [""]
 
 
+def _without(rows: Sequence[dict[str, str]], policy: str) -> dict[str, dict[str, str]]:
+    """``policy``'s rows of the axis ``medium_without`` by component."""
+    return {r["level"]: r for r in rows
+            if r["axis"] == "medium_without" and r["policy"] == policy}
+
+
+def _without_cells(pts: dict[str, dict[str, str]], track: bool) -> list[str]:
+    """``medium`` and ``medium`` without each component (``-``: not swept); the component
+    whose removal gains the most in bold, where one gains anything."""
+    vals = {c: csv_number(pts[c]["rms" if track else "success"]) for c in MEDIUM_COMPONENTS
+            if c in pts}
+    gain = {c: (vals["nothing"] - v if track else v - vals["nothing"])
+            for c, v in vals.items() if c != "nothing" and "nothing" in vals}
+    best = max(gain, key=gain.get) if gain and max(gain.values()) > 0 else None
+    cells = []
+    for c in MEDIUM_COMPONENTS:
+        if c not in pts:
+            cells.append("-")
+            continue
+        v = _value(pts[c], track)
+        cells.append(f"**{v}**" if c == best else v)
+    return cells
+
+
+def _without_table(rows: Sequence[dict[str, str]], track: bool) -> list[str]:
+    """One agent's section: every policy at ``medium`` without each component."""
+    if not any(_without(rows, p) for p in POLICIES):
+        return []
+    comps = MEDIUM_COMPONENTS[1:]
+    what = "RMS tracking error" if track else "success"
+    lines = ["", f"`medium` without one component, {what} (in bold the removal that gains "
+             "the most):", "",
+             "| policy | medium | " + " | ".join(f"without {c}" for c in comps) + " |",
+             "|---|" + "---|" * (len(comps) + 1)]
+    for pol in POLICIES:
+        pts = _without(rows, pol)
+        if pts:
+            lines.append(f"| {pol} | " + " | ".join(_without_cells(pts, track)) + " |")
+    return lines
+
+
+def _component_costs(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
+    """Each agent at ``medium`` and at ``medium`` without one component at a time."""
+    have = [n for n, rows in by_target.items() if _without(rows, "agent")]
+    if not have:
+        return []
+    comps = MEDIUM_COMPONENTS[1:]
+    lines = ["## What `medium` costs, component by component", "",
+             "Each agent at `medium` and at `medium` with one of its components removed (axis "
+             "`medium_without`, [Robustness](robustness.md)): success (goal) or RMS tracking "
+             "error (track); in bold the removal that gains the most. The episodes are paired: "
+             "a removed component keeps its random draws, so each episode starts and is "
+             "perturbed as at `medium` but for that component. Once a policy's path differs it "
+             "meets the other components' faults at other moments, so at 50 episodes (one "
+             "episode is 2 points) a few points either way are noise. The baselines' numbers "
+             "are in each agent's section below.", "",
+             "| agent | medium | " + " | ".join(f"without {c}" for c in comps) + " |",
+             "|---|" + "---|" * (len(comps) + 1)]
+    for name in have:
+        rows = by_target[name]
+        lines.append(f"| {name} | "
+                     + " | ".join(_without_cells(_without(rows, "agent"), _is_track(rows)))
+                     + " |")
+    return lines + [""]
+
+
 def wilson_interval(successes: float, n: int, z: float = 1.959963984540054
                     ) -> tuple[float, float]:
     """The Wilson score interval of a success rate (``z``: the normal 97.5% quantile, a 95%
@@ -170,6 +238,7 @@ def _per_agent(name: str, rows: list[dict[str, str]], csv_path: Path, fig_rel: s
                 cells.append(f"{csv_number(r['success']):.0f}")
         if any(c != "-" for c in cells):
             lines.append(f"| {pol} | " + " | ".join(cells) + " |")
+    lines += _without_table(rows, track)
     crit = (f"RMS > {RMS_FACTOR:g}x the policy's nominal RMS" if track
             else f"success < {SUCCESS_MIN:.0f}%")
     table = summary_table(csv_path, [name]).splitlines()[2:]  # without its bold title line
@@ -206,7 +275,8 @@ def render_page(csv_path: str | Path, page: str | Path) -> str:
              f"`{_shown_path(csv_path, Path(page))}` ({len(rows)} rows, {len(by_target)} agents, "
              f"{'/'.join(n_eps)} episodes per level and policy); what the axes, levels and "
              "policies are: [Robustness](robustness.md).", "",
-             *_summary(by_target), *_robust(by_target), "## Per agent", ""]
+             *_summary(by_target), *_robust(by_target), *_component_costs(by_target),
+             "## Per agent", ""]
     for name, mine in by_target.items():
         lines += _per_agent(name, mine, csv_path, fig_rel.as_posix())
     return "\n".join(lines).rstrip() + "\n"
