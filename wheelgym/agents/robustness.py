@@ -59,7 +59,7 @@ from wheelgym.envs.baseline import baseline
 from wheelgym.envs.perturbation import FAULT_FIELDS, LEVELS, Perturbation
 
 __all__ = ["AXES", "POLICIES", "COLUMNS", "Axis", "load_target", "agent_digest", "env_digest",
-           "MEDIUM_COMPONENTS", "medium_without",
+           "MEDIUM_COMPONENTS", "VANISHING", "medium_without",
            "applicable_axes", "sweep",
            "plot", "read_rows", "summary_table", "timing_note", "DEFAULT_OUT", "fails",
            "SUCCESS_MIN", "RMS_FACTOR", "csv_number"]
