@@ -99,7 +99,7 @@ MEDIUM_COMPONENTS = ("nothing", "parameters", "action_delay", "actuator_lag", "o
 
 
 #: The magnitude that stands for a removed random component in :func:`medium_without`: its
-#: draws stay, its effect is below float32's (and the dynamics') resolution.
+#: draws stay, its effect is below float32's resolution and the state's round-off.
 VANISHING = 1e-300
 
 
@@ -112,9 +112,10 @@ def medium_without(component: str) -> Perturbation:
     Paired with ``medium``: a removed component keeps its random draws, so each episode draws
     its goal, parameters and faults as at ``medium``. The scales become 1x (a draw from
     ``[1, 1]``); the noises and the faults' probabilities become :data:`VANISHING` (a fault
-    never starts, a noise adds nothing a float32 observation or the dynamics can hold). The
-    delay and the lag draw nothing. So a policy that reads the state (the baselines) scores
-    exactly as at ``medium`` without an observation component.
+    starts only on a uniform draw of exactly 0, once in about 2^53 draws; a noise adds about
+    1e-300, which a float32 observation cannot hold and which is far below the state's
+    round-off). The delay and the lag draw nothing. So a policy that reads the state (the
+    baselines) scores exactly as at ``medium`` without an observation component.
     """
     med = LEVELS["medium"]
     if component not in MEDIUM_COMPONENTS:
