@@ -55,6 +55,7 @@ from wheelgym.agents.evaluate import (
     summarize,
 )
 from wheelgym.agents.policies import RandomPolicy, load_agent
+from wheelgym.agents.store import json_digest
 from wheelgym.envs.baseline import baseline
 from wheelgym.envs.perturbation import FAULT_FIELDS, LEVELS, Perturbation
 
@@ -212,9 +213,7 @@ def agent_digest(target: str | Path) -> str:
 def env_digest(config: TrainConfig) -> str:
     """The first 12 hex digits of the SHA-256 of the config's env id and ``env_kwargs``: the
     ``env_sha`` of its target's rows (every policy is scored on that env)."""
-    text = json.dumps({"env_id": config.env_id, "env_kwargs": config.env_kwargs},
-                      sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
+    return json_digest({"env_id": config.env_id, "env_kwargs": config.env_kwargs})
 
 
 def _resume(csv_path: Path, name: str, sha: str, drop_stale: bool,

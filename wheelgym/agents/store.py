@@ -30,7 +30,7 @@ from typing import Any
 from wheelgym import resources
 from wheelgym.agents.config import WHEELGYM_BLOCK, TrainConfig
 
-__all__ = ["COLUMNS", "DEFAULT_CSV", "parse_number", "read_rows", "config_digest",
+__all__ = ["COLUMNS", "DEFAULT_CSV", "parse_number", "read_rows", "config_digest", "json_digest",
            "append_row", "drop_rows", "replace_rows", "row_key", "is_row"]
 
 #: The repository's committed CSV in a source checkout, else runs/benchmark/training.csv.
@@ -90,6 +90,12 @@ def config_digest(config: TrainConfig) -> str:
     for key in ("seed", "checkpoint_freq"):
         data[WHEELGYM_BLOCK].pop(key, None)
     next(v for k, v in data.items() if k != WHEELGYM_BLOCK).pop("n_timesteps", None)
+    return json_digest(data)
+
+
+def json_digest(data: Any) -> str:
+    """12 hex digits of SHA-256 over ``data`` as JSON with sorted keys (values JSON cannot
+    hold as their ``str``): the results CSVs' digest columns."""
     text = json.dumps(data, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
