@@ -470,9 +470,8 @@ def plot(csv_path: str | Path, out: str | Path | None = None,
                     c, m = _STYLE[pol]
                     ax.plot(xs, ys, color=c, marker=m, ms=3, lw=1, label=pol,
                             ls="none" if axis.ablation else "-")
-                ax.set_xticks(range(len(lv)), lv, fontsize=6,
-                              rotation=40 if axis.ablation else 0, ha="right" if axis.ablation
-                              else "center")
+                slant = {"rotation": 40, "ha": "right"} if axis.ablation else {}
+                ax.set_xticks(range(len(lv)), lv, fontsize=6, **slant)
                 ax.tick_params(labelsize=6)
                 ax.set_title(f"{ax_name} [{axis.unit}]", fontsize=7)
                 if col == "rms":

@@ -131,16 +131,20 @@ def _without_cells(pts: dict[str, dict[str, str]], track: bool) -> list[str]:
     return cells
 
 
+def _without_header(first: str) -> list[str]:
+    """The header of a ``medium_without`` table whose first column is ``first``."""
+    comps = MEDIUM_COMPONENTS[1:]
+    return [f"| {first} | medium | " + " | ".join(f"without {c}" for c in comps) + " |",
+            "|---|" + "---|" * (len(comps) + 1)]
+
+
 def _without_table(rows: Sequence[dict[str, str]], track: bool) -> list[str]:
     """One agent's section: every policy at ``medium`` without each component."""
     if not any(_without(rows, p) for p in POLICIES):
         return []
-    comps = MEDIUM_COMPONENTS[1:]
     what = "RMS tracking error" if track else "success"
     lines = ["", f"`medium` without one component, {what} (in bold the removal that gains "
-             "the most):", "",
-             "| policy | medium | " + " | ".join(f"without {c}" for c in comps) + " |",
-             "|---|" + "---|" * (len(comps) + 1)]
+             "the most):", "", *_without_header("policy")]
     for pol in POLICIES:
         pts = _without(rows, pol)
         if pts:
@@ -153,7 +157,6 @@ def _component_costs(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
     have = [n for n, rows in by_target.items() if _without(rows, "agent")]
     if not have:
         return []
-    comps = MEDIUM_COMPONENTS[1:]
     lines = ["## What `medium` costs, component by component", "",
              "Each agent at `medium` and at `medium` with one of its components removed (axis "
              "`medium_without`, [Robustness](robustness.md)): success (goal) or RMS tracking "
@@ -162,9 +165,7 @@ def _component_costs(by_target: dict[str, list[dict[str, str]]]) -> list[str]:
              "perturbed as at `medium` but for that component. Once a policy's path differs it "
              "meets the other components' faults at other moments, so at 50 episodes (one "
              "episode is 2 points) a few points either way are noise. The baselines' numbers "
-             "are in each agent's section below.", "",
-             "| agent | medium | " + " | ".join(f"without {c}" for c in comps) + " |",
-             "|---|" + "---|" * (len(comps) + 1)]
+             "are in each agent's section below.", "", *_without_header("agent")]
     for name in have:
         rows = by_target[name]
         lines.append(f"| {name} | "
