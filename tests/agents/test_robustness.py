@@ -296,6 +296,10 @@ def test_robust_table_shows_the_robust_agent_on_the_nominal_robot(tmp_path):
     assert line.split(" | ")[2:5] == ["100% [93, 100]", "86%", "98% [90, 100]"]
     line = next(ln for ln in lines if ln.startswith("| B-track-robust | RMS medium"))
     assert line.split(" | ")[2:4] == ["0.4x (25 mm)", "20% (70 mm)"]
+    # the ratio is met, but the agent fails the robot it was not perturbed on
+    assert line.endswith("| met; **fails the nominal robot** (20%) |")
+    line = next(ln for ln in lines if ln.startswith("| A-goal-robust | success at medium"))
+    assert line.endswith("| met; **fails the nominal robot** (86%) |")
 
 
 def test_wilson_interval_solves_its_defining_quadratic():
