@@ -138,7 +138,7 @@ class WheelCore:
         spec: RobotSpec = cfg.spec
         self.spec = spec
         self.num = N = int(num)
-        self.task_name = task = cfg.task
+        self.task_name = cfg.task
         self.action_mode = mode = cfg.action_mode
         #: DC motors (``motor="dc"``): the model's DC law and electrical power in the step.
         self.dc = cfg.motor != "ideal"
@@ -170,7 +170,13 @@ class WheelCore:
                              f"ranges)") from None
         self.obs_noise = cfg.obs_noise
         self.horizon = cfg.horizon
+        self._init_blocks(N)
+        self._init_observation(N)
 
+    def _init_blocks(self, N: int) -> None:
+        """The constructor's second part: the action sizes, the velocity mode's controller,
+        the step kernel and the per-row state blocks."""
+        cfg, spec, mode = self.config, self.spec, self.action_mode
         # action sizes and the velocity mode's controller
         self.action_dim = spec.action_dim(mode)
         self._velocity = spec.tracks_twist(mode)
@@ -221,7 +227,7 @@ class WheelCore:
         self._lay = lay
         self.B = np.zeros((N, lay["width"]))
         self.F = np.zeros((N, 5), dtype=np.bool_)
-        self.terms = np.zeros((N, len(TASKS[task].columns)))
+        self.terms = np.zeros((N, len(TASKS[self.task_name].columns)))
         #: Mean motor power of each row's last step (W; ``info["electrical_power"]``): the
         #: step's increment of ``energy`` over ``ctrl_dt`` (0 at a reset); ``_e0`` the energy
         #: at the end of the previous step (0 after a reset)
@@ -237,7 +243,11 @@ class WheelCore:
         self.drawn: list[dict[str, float]] = [{} for _ in range(N)]
         self.params_rows = [self.base_params] * N
 
-        self.task: Task = TASKS[task](self, cfg.reward_weights, **cfg.task_kwargs())
+    def _init_observation(self, N: int) -> None:
+        """The constructor's last part: the task, the observation's layout (the task's
+        entries, then the observation and action histories) and the signal faults."""
+        cfg = self.config
+        self.task: Task = TASKS[self.task_name](self, cfg.reward_weights, **cfg.task_kwargs())
         names, high = self.task.obs_layout()
         low = self.task.obs_low() if isinstance(self.task, NavigateTask) else -high
         #: Observation entries of the task (the first columns of ``obs``).
