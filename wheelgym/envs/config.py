@@ -67,6 +67,13 @@ def _check_dt(name: str, value: Any, high: float = math.inf) -> float:
     return v
 
 
+def _check_bool(name: str, value: Any) -> bool:
+    """``value`` as a bool (a NumPy bool too); ``TypeError`` naming ``name`` otherwise."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {value!r}")
+    return bool(value)
+
+
 def _check_number(name: str, value: Any, low: float = -math.inf) -> float:
     """``value`` as a float: a real number (not bool, not a string), finite and >= ``low``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
@@ -342,6 +349,11 @@ class EnvConfig:
         put("perturbation", pert)
         if pert is not None:
             _check_perturbation(spec, pert, self)
+        self._check_task_keywords()
+
+    def _check_task_keywords(self) -> None:
+        """``__post_init__``'s second part: the keywords of the task and the observation."""
+        put = self._put
         if self.reward_weights is not None and not isinstance(self.reward_weights, Mapping):
             raise TypeError(f"reward_weights must be a dict, got {self.reward_weights!r}")
         if self.task != "navigate" and self.range_backend != "analytic":
@@ -354,16 +366,12 @@ class EnvConfig:
                 raise ValueError("arena applies to task='navigate' only")
             put("arena", os.fspath(self.arena))  # (the task loads it: one-line errors)
         # (navigate's sensor checks the backend's name, listing the valid ones)
-        if not isinstance(self.goal_conditioned, (bool, np.bool_)):
-            raise TypeError(f"goal_conditioned must be a bool, got {self.goal_conditioned!r}")
-        put("goal_conditioned", bool(self.goal_conditioned))
+        put("goal_conditioned", _check_bool("goal_conditioned", self.goal_conditioned))
         if self.goal_conditioned and self.task not in ("goal", "navigate"):
             raise ValueError(f"goal_conditioned applies to task='goal' or 'navigate' only, "
                              f"got task={self.task!r}")
-        if not isinstance(self.goal_free_observation, (bool, np.bool_)):
-            raise TypeError(f"goal_free_observation must be a bool, got "
-                            f"{self.goal_free_observation!r}")
-        put("goal_free_observation", bool(self.goal_free_observation))
+        put("goal_free_observation",
+            _check_bool("goal_free_observation", self.goal_free_observation))
         if self.goal_free_observation and not self.goal_conditioned:
             raise ValueError("goal_free_observation needs goal_conditioned=True (it shapes the "
                              "Dict observation's 'observation' key)")
@@ -371,9 +379,7 @@ class EnvConfig:
             raise ValueError(f"version must be one of {list(VERSIONS)} (the id's -vN), got "
                              f"{self.version!r}")
         put("version", int(self.version))
-        if not isinstance(self.waypoint_hint, (bool, np.bool_)):
-            raise TypeError(f"waypoint_hint must be a bool, got {self.waypoint_hint!r}")
-        put("waypoint_hint", bool(self.waypoint_hint))
+        put("waypoint_hint", _check_bool("waypoint_hint", self.waypoint_hint))
         if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
             raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
                              "(version=1) only")

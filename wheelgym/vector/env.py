@@ -253,7 +253,11 @@ class WheelVectorEnv(VectorEnv):
         self._prev_ag: np.ndarray | None = None
         self.action_space = batch_space(self.single_action_space, N)
         self.observation_space = batch_space(self.single_observation_space, N)
+        self._init_buffers(c, N)
 
+    def _init_buffers(self, c: WheelCore, N: int) -> None:
+        """The constructor's last part: where the step's info comes from in the core's
+        blocks, the episode counters and flags, and the step's scratch arrays."""
         self._names = c.task.names
         self._flat_names = tuple(f"reward_{n}" for n in self._names)
         self._tidx = np.array([int(k) for k in c.task.term_index], dtype=np.int64)
