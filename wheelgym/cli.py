@@ -55,8 +55,15 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wheelgym import resources
+
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    #: The parser's subcommands (what ``add_subparsers`` returns).
+    _Commands: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 __all__ = ["main"]
 
@@ -117,14 +124,8 @@ def _add_debug(p: argparse.ArgumentParser, default: object) -> None:
                    help="show the Python traceback of an error")
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = _Parser(
-        prog="wheelgym",
-        description="Wheeled-robot Gymnasium environments: train, evaluate, demo, validate.",
-    )
-    _add_debug(p, False)
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
+def _add_main(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym main``'s arguments."""
     m = sub.add_parser("main", help="train the default agent, evaluate it, print the table")
     m.add_argument("--config", type=Path, default=None,
                    help="config file or shipped config name (default: "
@@ -135,7 +136,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="evaluation episodes per policy (default 50)")
     m.add_argument("--runs-root", type=Path, default=resources.runs_dir())
     m.add_argument("--no-progress", action="store_true")
+    return m
 
+
+def _add_train(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym train``'s arguments."""
     t = sub.add_parser("train", help="train an SB3 agent from a YAML config")
     t.add_argument("config", nargs="?", type=Path,
                    help="config file or shipped config name (see `wheelgym configs`)")
@@ -149,7 +154,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="continue this run folder instead of starting one")
     t.add_argument("--no-progress", action="store_true")
     t.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2))
+    return t
 
+
+def _add_evaluate(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym evaluate``'s arguments."""
     e = sub.add_parser("evaluate", help="score a run against the baseline and a random policy")
     e.add_argument("run", nargs="?", type=Path,
                    help="run folder (holds config.yml and model.zip)")
@@ -163,7 +172,11 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--best", action="store_true", help="use best_model.zip, not model.zip")
     e.add_argument("--out", type=Path, default=None,
                    help="output folder (default RUN/eval, or runs/pretrained-eval/NAME)")
+    return e
 
+
+def _add_tune(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym tune``'s arguments."""
     u = sub.add_parser("tune", help="hyperparameter search with Optuna (writes the best config)")
     u.add_argument("config", nargs="?", type=Path,
                    help="config file or shipped config name to tune (see `wheelgym configs`)")
@@ -208,7 +221,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="only write the best config of study NAME (with --storage, --out)")
     u.add_argument("--out", type=Path, default=None,
                    help="best config file (default RUNS_ROOT/STUDY/best.yml)")
+    return u
 
+
+def _add_benchmark(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym benchmark``'s arguments."""
     b = sub.add_parser("benchmark", help="results table: configs x seeds vs baseline/random")
     b.add_argument("configs", nargs="*", type=Path,
                    help="config files or shipped config names (default: every shipped "
@@ -259,7 +276,11 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--navigate-page", type=Path, default=None, metavar="PAGE.md",
                    help="also put the navigate configs' seeds between the navigate-rows "
                         "markers of this file, e.g. docs/topics/planning.md")
+    return b
 
+
+def _add_pretrained(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym pretrained``'s arguments."""
     r = sub.add_parser("pretrained", help="list the shipped agents, or export them from the "
                                           "benchmark CSV")
     r.add_argument("action", choices=("list", "export"),
@@ -275,7 +296,11 @@ def _parser() -> argparse.ArgumentParser:
                         "agents; export: a checkout's agents/pretrained)")
     r.add_argument("--size-limit", type=_positive_float, default=None, metavar="MB",
                    help="export: refuse to make the folder larger than this (default 15)")
+    return r
 
+
+def _add_demo(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym demo``'s arguments."""
     d = sub.add_parser("demo", help="render the analytic baseline (or a shipped agent) driving "
                                     "an environment")
     d.add_argument("env_id", metavar="ID", help="e.g. ThreeWheel-v0 or wheelgym/ThreeWheel-v0")
@@ -291,10 +316,18 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--out", type=Path, default=None,
                    help="save instead of opening a window: .gif, .mp4, or a folder of PNGs "
                         "(the default without a display: runs/demo/<ID>.gif)")
+    return d
 
+
+def _add_validate(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym validate``'s arguments."""
     v = sub.add_parser("validate", help="run the physics validation report")
     v.add_argument("args", nargs="*", help="passed on to wheelgym.validate")
+    return v
 
+
+def _add_robustness(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym robustness``'s arguments."""
     rb = sub.add_parser("robustness", help="sweep perturbations: agent vs nominal- and "
                                            "true-model baseline vs random")
     rb.add_argument("target", metavar="TARGET", nargs="?", default=None,
@@ -324,13 +357,20 @@ def _parser() -> argparse.ArgumentParser:
     rb.add_argument("--page", type=Path, default=None, metavar="PAGE.md",
                     help="also write the results page from the whole CSV (e.g. "
                          "docs/topics/robustness-results.md); without TARGET only that")
+    return rb
+
+
+def _add_configs(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym configs``'s arguments."""
     c = sub.add_parser("configs", help="list the shipped configs, or print one (to copy and "
                                        "edit: wheelgym configs NAME > my.yml)")
     c.add_argument("name", nargs="?", default=None, metavar="NAME",
                    help="print this config's YAML instead of the list")
-    for sp in (m, t, e, u, b, r, d, v, rb, c):
-        _add_debug(sp, argparse.SUPPRESS)  # after the command too; keeps a --debug given before
+    return c
 
+
+def _add_export(sub: _Commands) -> argparse.ArgumentParser:
+    """``wheelgym export``'s arguments."""
     x = sub.add_parser("export", help="write a trained agent's deterministic policy (with its "
                                       "observation normalisation) as one ONNX graph")
     x.add_argument("source", metavar="CONFIG_OR_RUN",
@@ -343,7 +383,20 @@ def _parser() -> argparse.ArgumentParser:
                    help="compare ONNX Runtime's actions with SB3's predict(deterministic=True) "
                         "on N observations drawn from the observation space (default 1000; "
                         "0: no check)")
-    _add_debug(x, argparse.SUPPRESS)
+    return x
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="wheelgym",
+        description="Wheeled-robot Gymnasium environments: train, evaluate, demo, validate.",
+    )
+    _add_debug(p, False)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in (_add_main, _add_train, _add_evaluate, _add_tune, _add_benchmark, _add_pretrained,
+                _add_demo, _add_validate, _add_robustness, _add_configs, _add_export):
+        # after the command too; keeps a --debug given before
+        _add_debug(add(sub), argparse.SUPPRESS)
     return p
 
 
@@ -462,75 +515,16 @@ def _cmd_tune(a: argparse.Namespace) -> int:
 
 
 def _cmd_benchmark(a: argparse.Namespace) -> int:
-    from wheelgym.agents.benchmark import (
-        DEFAULT_CSV,
-        NAVIGATE_BEGIN,
-        NAVIGATE_END,
-        between,
-        default_configs,
-        format_table,
-        navigate_rows,
-        plot_curves,
-        read_rows,
-        readme_summary,
-        rescore,
-        results_page,
-        run_benchmark,
-        update_between,
-        update_readme,
-    )
+    from wheelgym.agents.benchmark import DEFAULT_CSV, run_benchmark
 
     csv_path = a.csv if a.csv is not None else DEFAULT_CSV
-    if a.out is not None:
-        _check_writable_file(a.out, "--out")
-    if a.curves is not None:
-        _check_writable_file(a.curves, "--curves")
-    if a.page is not None:
-        _check_writable_file(a.page, "--page")
-    if a.navigate_page is not None and (  # before any training: a typo costs nothing
-            not a.navigate_page.is_file()
-            or between(a.navigate_page.read_text(), NAVIGATE_BEGIN, NAVIGATE_END) is None):
-        raise ValueError(f"--navigate-page {a.navigate_page}: not a file with the markers "
-                         f"{NAVIGATE_BEGIN!r} ... {NAVIGATE_END!r}")
+    _check_benchmark_outputs(a)
     if a.rescore:
-        given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
-                                ("--first-seed", a.first_seed),
-                                ("--episodes", a.episodes), ("--budget", a.budget),
-                                ("--ray", a.ray is not None), ("--drop-stale", a.drop_stale),
-                                ("--table", a.table), ("--curves", a.curves is not None))
-                 if v]
-        if given:
-            raise ValueError(f"--rescore scores the CSV's runs again and trains nothing; drop "
-                             f"{', '.join(given)}")
-        notes = rescore(csv_path, [p.stem for p in a.configs] or None, workers=a.workers,
-                        log=_print)
-        for note in notes:
-            _print(f"changed: {note}")
-        names = {p.stem for p in a.configs}
-        table = format_table([r for r in read_rows(csv_path) if not names or r["config"] in names])
+        table = _benchmark_rescore(a, csv_path)
     elif a.table or a.curves is not None:
-        given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
-                                ("--first-seed", a.first_seed),
-                                ("--episodes", a.episodes), ("--budget", a.budget),
-                                ("--workers", a.workers is not None),
-                                ("--ray", a.ray is not None)) if v]
-        if given:
-            raise ValueError(f"--table and --curves read the CSV and train nothing; drop "
-                             f"{', '.join(given)}")
-        rows = read_rows(csv_path)
-        names = {p.stem for p in a.configs}
-        if names:
-            known = sorted({r["config"] for r in rows})
-            bad = sorted(names - set(known))
-            if bad:
-                raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: "
-                                 f"{known}")
-        if a.curves is not None:
-            out = plot_curves(rows, [str(p) for p in a.configs], a.curves, log=_print)
-            _print(f"wrote {out}")
-        if not a.table:
+        table = _benchmark_from_csv(a, csv_path)
+        if table is None:
             return 0
-        table = format_table([r for r in rows if not names or r["config"] in names])
     else:
         configs = [resources.config_path(p, "CONFIGS") for p in a.configs]
         table = run_benchmark(configs or None, quick=a.quick, seeds=a.seeds,
@@ -541,18 +535,103 @@ def _cmd_benchmark(a: argparse.Namespace) -> int:
     _print(table)
     if a.out is not None:
         a.out.write_text(table + "\n")
-    if a.readme is not None or a.page is not None or a.navigate_page is not None:
-        names = {p.stem for p in a.configs}
-        rows = [r for r in read_rows(csv_path) if not names or r["config"] in names]
-        if a.readme is not None:
-            update_readme(a.readme, readme_summary(rows))
-        if a.navigate_page is not None:
-            update_between(a.navigate_page, NAVIGATE_BEGIN, NAVIGATE_END, navigate_rows(rows),
-                           what="navigate-rows")
-        if a.page is not None:
-            shipped = [p.stem for p in default_configs()] if not names else sorted(names)
-            a.page.write_text(results_page(rows, configs=shipped) + "\n")
+    _benchmark_pages(a, csv_path)
     return 0
+
+
+def _check_benchmark_outputs(a: argparse.Namespace) -> None:
+    """The benchmark's output files, checked before any training: a typo costs nothing."""
+    from wheelgym.agents.benchmark import NAVIGATE_BEGIN, NAVIGATE_END, between
+
+    if a.out is not None:
+        _check_writable_file(a.out, "--out")
+    if a.curves is not None:
+        _check_writable_file(a.curves, "--curves")
+    if a.page is not None:
+        _check_writable_file(a.page, "--page")
+    if a.navigate_page is not None and (
+            not a.navigate_page.is_file()
+            or between(a.navigate_page.read_text(), NAVIGATE_BEGIN, NAVIGATE_END) is None):
+        raise ValueError(f"--navigate-page {a.navigate_page}: not a file with the markers "
+                         f"{NAVIGATE_BEGIN!r} ... {NAVIGATE_END!r}")
+
+
+def _benchmark_rescore(a: argparse.Namespace, csv_path: Path) -> str:
+    """``--rescore``: the CSV's runs scored again; the table of the configs given."""
+    from wheelgym.agents.benchmark import format_table, read_rows, rescore
+
+    given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                            ("--first-seed", a.first_seed),
+                            ("--episodes", a.episodes), ("--budget", a.budget),
+                            ("--ray", a.ray is not None), ("--drop-stale", a.drop_stale),
+                            ("--table", a.table), ("--curves", a.curves is not None))
+             if v]
+    if given:
+        raise ValueError(f"--rescore scores the CSV's runs again and trains nothing; drop "
+                         f"{', '.join(given)}")
+    notes = rescore(csv_path, [p.stem for p in a.configs] or None, workers=a.workers,
+                    log=_print)
+    for note in notes:
+        _print(f"changed: {note}")
+    names = {p.stem for p in a.configs}
+    return format_table([r for r in read_rows(csv_path) if not names or r["config"] in names])
+
+
+def _benchmark_from_csv(a: argparse.Namespace, csv_path: Path) -> str | None:
+    """``--table`` and ``--curves``: read the CSV, train nothing; the table, or None without
+    ``--table``."""
+    from wheelgym.agents.benchmark import format_table, plot_curves, read_rows
+
+    given = [n for n, v in (("--quick", a.quick), ("--seeds", a.seeds),
+                            ("--first-seed", a.first_seed),
+                            ("--episodes", a.episodes), ("--budget", a.budget),
+                            ("--workers", a.workers is not None),
+                            ("--ray", a.ray is not None)) if v]
+    if given:
+        raise ValueError(f"--table and --curves read the CSV and train nothing; drop "
+                         f"{', '.join(given)}")
+    rows = read_rows(csv_path)
+    names = {p.stem for p in a.configs}
+    if names:
+        known = sorted({r["config"] for r in rows})
+        bad = sorted(names - set(known))
+        if bad:
+            raise ValueError(f"configs {bad} have no rows in {csv_path}; configs there: "
+                             f"{known}")
+    if a.curves is not None:
+        out = plot_curves(rows, [str(p) for p in a.configs], a.curves, log=_print)
+        _print(f"wrote {out}")
+    if not a.table:
+        return None
+    return format_table([r for r in rows if not names or r["config"] in names])
+
+
+def _benchmark_pages(a: argparse.Namespace, csv_path: Path) -> None:
+    """``--readme``, ``--navigate-page`` and ``--page``, written from the CSV's rows."""
+    from wheelgym.agents.benchmark import (
+        NAVIGATE_BEGIN,
+        NAVIGATE_END,
+        default_configs,
+        navigate_rows,
+        read_rows,
+        readme_summary,
+        results_page,
+        update_between,
+        update_readme,
+    )
+
+    if a.readme is None and a.page is None and a.navigate_page is None:
+        return
+    names = {p.stem for p in a.configs}
+    rows = [r for r in read_rows(csv_path) if not names or r["config"] in names]
+    if a.readme is not None:
+        update_readme(a.readme, readme_summary(rows))
+    if a.navigate_page is not None:
+        update_between(a.navigate_page, NAVIGATE_BEGIN, NAVIGATE_END, navigate_rows(rows),
+                       what="navigate-rows")
+    if a.page is not None:
+        shipped = [p.stem for p in default_configs()] if not names else sorted(names)
+        a.page.write_text(results_page(rows, configs=shipped) + "\n")
 
 
 def _cmd_pretrained(a: argparse.Namespace) -> int:
