@@ -67,7 +67,7 @@ def _check_dt(name: str, value: Any, high: float = math.inf) -> float:
     return v
 
 
-def _check_bool(name: str, value: Any) -> bool:
+def check_bool(name: str, value: Any) -> bool:
     """``value`` as a bool (a NumPy bool too); ``TypeError`` naming ``name`` otherwise."""
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a bool, got {value!r}")
@@ -366,12 +366,12 @@ class EnvConfig:
                 raise ValueError("arena applies to task='navigate' only")
             put("arena", os.fspath(self.arena))  # (the task loads it: one-line errors)
         # (navigate's sensor checks the backend's name, listing the valid ones)
-        put("goal_conditioned", _check_bool("goal_conditioned", self.goal_conditioned))
+        put("goal_conditioned", check_bool("goal_conditioned", self.goal_conditioned))
         if self.goal_conditioned and self.task not in ("goal", "navigate"):
             raise ValueError(f"goal_conditioned applies to task='goal' or 'navigate' only, "
                              f"got task={self.task!r}")
         put("goal_free_observation",
-            _check_bool("goal_free_observation", self.goal_free_observation))
+            check_bool("goal_free_observation", self.goal_free_observation))
         if self.goal_free_observation and not self.goal_conditioned:
             raise ValueError("goal_free_observation needs goal_conditioned=True (it shapes the "
                              "Dict observation's 'observation' key)")
@@ -379,7 +379,7 @@ class EnvConfig:
             raise ValueError(f"version must be one of {list(VERSIONS)} (the id's -vN), got "
                              f"{self.version!r}")
         put("version", int(self.version))
-        put("waypoint_hint", _check_bool("waypoint_hint", self.waypoint_hint))
+        put("waypoint_hint", check_bool("waypoint_hint", self.waypoint_hint))
         if self.waypoint_hint and (self.task != "navigate" or self.version != 1):
             raise ValueError("waypoint_hint applies to task='navigate' of the -v1 ids "
                              "(version=1) only")

@@ -63,7 +63,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from wheelgym.envs.config import EnvConfig, signature_with
+from wheelgym.envs.config import EnvConfig, check_bool, signature_with
 from wheelgym.envs.core import DEFAULT_HORIZON, WheelCore
 from wheelgym.envs.wheel_env import (
     goal_free_columns,
@@ -216,8 +216,7 @@ class WheelVectorEnv(VectorEnv):
         if not isinstance(reward_terms, str) or reward_terms not in REWARD_TERMS:
             raise ValueError(f"reward_terms must be one of {list(REWARD_TERMS)}, "
                              f"got {reward_terms!r}")
-        if not isinstance(reset_info, (bool, np.bool_)):
-            raise TypeError(f"reset_info must be a bool, got {reset_info!r}")
+        reset_info = check_bool("reset_info", reset_info)
         #: The validated keyword arguments shared by the N sub-envs.
         self.config = config
         self.core = c = WheelCore(config, int(num_envs))
@@ -232,7 +231,7 @@ class WheelVectorEnv(VectorEnv):
         #: How the step info holds the reward terms (``REWARD_TERMS``).
         self.reward_terms = reward_terms
         #: Whether the infos carry the reset-only ``params`` and ``task``.
-        self.reset_info = bool(reset_info)
+        self.reset_info = reset_info
         self._client_checked = False
         self.metadata = {**self.metadata, "autoreset_mode": mode,
                          "render_fps": int(round(1.0 / c.dt))}
